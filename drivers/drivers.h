@@ -1,0 +1,84 @@
+/* drivers.h - marker sources behind one interface.
+ *
+ * A source yields timestamped marker frames: a fixed, named marker set (names known after open),
+ * positions in metres (Y up), a validity flag per marker, and the CLOCK_MONOTONIC capture time in
+ * microseconds. Sources: replay of marker files (replay.c), depth cameras through OpenNI2, V4L2 and
+ * fakenect dumps (depth/), each turning depth into markers. The daemon's source thread is the only
+ * caller; a source creates no threads of its own unless its header says so.
+ *
+ * Lifecycle: drv_source_open (parse the spec, find the device or file, learn the marker names)
+ * -> drv_source_start (begin streaming) -> drv_source_read ... -> drv_source_stop -> drv_source_close.
+ * drv_source_read fills caller-provided buffers and allocates nothing.
+ */
+#ifndef MESHSTEER_DRIVERS_H
+#define MESHSTEER_DRIVERS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define DRV_ERR_LEN 512
+
+enum {
+    DRV_EEOF = -2000,     /* a finite source (replay without loop) has ended */
+    DRV_ETIMEOUT = -2001, /* no frame within the timeout; try again */
+    DRV_ELOST = -2002,    /* the device went away; close and reopen later */
+};
+
+/* The source's state, as shown on /healthz. */
+typedef enum drv_state {
+    DRV_STATE_CLOSED = 0,
+    DRV_STATE_OPEN,
+    DRV_STATE_STREAMING,
+    DRV_STATE_ENDED,
+    DRV_STATE_LOST,
+} drv_state;
+
+typedef struct drv_frame {
+    uint64_t seq;          /* frame counter of the source */
+    uint64_t t_capture_us; /* CLOCK_MONOTONIC, microseconds */
+    int count;             /* markers in xyz/valid (= the source's marker count) */
+    float *xyz;            /* count x 3, caller-provided */
+    uint8_t *valid;        /* count, caller-provided */
+} drv_frame;
+
+typedef struct drv_source drv_source;
+
+typedef struct drv_source_ops {
+    const char *scheme; /* "replay", "openni2", "v4l2", "fakenect", ... */
+    int (*open)(drv_source *s, const char *arg, char *err);
+    int (*start)(drv_source *s, char *err);
+    int (*read)(drv_source *s, drv_frame *f, int timeout_ms, char *err);
+    int (*control)(drv_source *s, const char *key, double value, char *err); /* may be NULL */
+    void (*stop)(drv_source *s);
+    void (*close)(drv_source *s);
+} drv_source_ops;
+
+struct drv_source {
+    const drv_source_ops *ops;
+    void *impl;
+    int count;            /* markers per frame */
+    const char **names;   /* count labels, owned by the implementation */
+    double fps;           /* nominal rate, 0 if unknown */
+    drv_state state;
+};
+
+/* spec: "scheme:argument", e.g. "replay:walk.c3d?loop=1&speed=0.5&start=10". */
+int drv_source_open(const char *spec, drv_source **out, char *err);
+int drv_source_start(drv_source *s, char *err);
+int drv_source_read(drv_source *s, drv_frame *f, int timeout_ms, char *err);
+/* Replay controls: "pause" (1/0), "seek" (frame), "speed" (factor). -ENOTSUP when not supported. */
+int drv_source_control(drv_source *s, const char *key, double value, char *err);
+void drv_source_stop(drv_source *s);
+void drv_source_close(drv_source *s); /* NULL is fine */
+
+/* The registry of source kinds (source.c); each implementation file adds its ops there. */
+const drv_source_ops *drv_source_find_ops(const char *scheme);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

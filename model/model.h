@@ -1,0 +1,238 @@
+/* model.h - the public interface of meshsteer's numerical core.
+ *
+ * Everything outside model/ includes only this header. model/ needs libc, OpenBLAS/LAPACKE and
+ * cJSON; it creates no threads, opens no sockets or devices and never prints.
+ *
+ * Conventions (DESIGN.md, "Data and units"):
+ *   - lengths in metres, right-handed, Y up;
+ *   - vertex and marker arrays are interleaved xyz, float, n x 3;
+ *   - triangles are uint32, 0-based, F x 3;
+ *   - a mesh sequence is frames x V x 3, frame-contiguous.
+ * Errors: functions return 0 or a negative errno / MDL_E* code; the last parameter `err` (may be
+ * NULL) receives a message of at most MDL_ERR_LEN bytes naming the file, the position and the reason.
+ * Ownership: x_create/x_read/x_load allocate, x_destroy frees and accepts NULL.
+ */
+#ifndef MESHSTEER_MODEL_H
+#define MESHSTEER_MODEL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define MDL_ERR_LEN 512
+
+/* Our own error codes (negative, below the errno range). */
+enum {
+    MDL_EFORMAT = -1000,  /* malformed input file */
+    MDL_EVERSION = -1001, /* model file of an incompatible version */
+    MDL_ETOPOLOGY = -1002,/* mesh topology differs from the one the model was trained on */
+    MDL_ENUMERIC = -1003, /* a factorisation or decomposition failed */
+};
+
+/* ------------------------------------------------------------------ meshes (obj.c, pc2.c, meshseq.c) */
+
+typedef struct mdl_mesh {
+    int nv, nf;
+    float *V;    /* nv x 3 */
+    uint32_t *F; /* nf x 3 */
+} mdl_mesh;
+
+typedef struct mdl_meshseq {
+    int nv, nf, frames;
+    double fps;  /* 0 when the file does not say */
+    float *V;    /* frames x nv x 3 */
+    uint32_t *F; /* nf x 3, shared by all frames */
+} mdl_meshseq;
+
+/* OBJ: `v` and `f` lines (f with v, v/t, v//n, v/t/n and negative indices); polygons are
+ * fan-triangulated; other lines are ignored. */
+int mdl_mesh_read_obj(const char *path, mdl_mesh **out, char *err);
+int mdl_mesh_parse_obj(const char *buf, size_t len, const char *name, mdl_mesh **out, char *err);
+int mdl_mesh_write_obj(const char *path, const float *V, int nv, const uint32_t *F, int nf, char *err);
+void mdl_mesh_destroy(mdl_mesh *m);
+
+/* A sequence: a directory of numbered OBJ files (natural numeric order; identical faces enforced),
+ * or a .pc2 point cache whose topology comes from `rest_obj` (required for .pc2, ignored otherwise). */
+int mdl_meshseq_read(const char *path, const char *rest_obj, mdl_meshseq **out, char *err);
+void mdl_meshseq_destroy(mdl_meshseq *s);
+
+/* PC2 point cache (little-endian "POINTCACHE2\0", version 1, numPoints, startFrame, sampleRate,
+ * numSamples, then samples x points x 3 float32). */
+int mdl_pc2_parse(const uint8_t *buf, size_t len, const char *name, int *nv, int *frames,
+                  float *start, float *rate, float **V, char *err);
+int mdl_pc2_write(const char *path, const float *V, int nv, int frames, float start, float rate,
+                  char *err);
+
+/* A 64-bit fingerprint of the face list (FNV-1a over nv, nf and the indices). */
+uint64_t mdl_topology_fingerprint(const uint32_t *F, int nf, int nv);
+
+/* ------------------------------------------------------------------ markers (c3d.c, trc.c, bvh.c, csv.c) */
+
+typedef struct mdl_markers {
+    int frames, count;
+    double fps;
+    float *P;       /* frames x count x 3, metres, Y up */
+    uint8_t *valid; /* frames x count, 1 = sample present */
+    char **names;   /* count NUL-terminated labels */
+} mdl_markers;
+
+/* Source axis conventions: which file axis points up. MDL_UP_AUTO picks the format's default
+ * (C3D: +Z, TRC: +Y, BVH: +Y, CSV: +Y). */
+enum { MDL_UP_AUTO = 0, MDL_UP_X, MDL_UP_Y, MDL_UP_Z, MDL_UP_NEG_X, MDL_UP_NEG_Y, MDL_UP_NEG_Z };
+
+typedef struct mdl_marker_opts {
+    double scale; /* metres per file unit; 0 = from the file (C3D POINT:UNITS, TRC Units) or a guess (BVH) */
+    int up;       /* MDL_UP_* */
+} mdl_marker_opts;
+
+/* Reads by extension: .c3d .trc .bvh .csv. `o` may be NULL for defaults. */
+int mdl_markers_read(const char *path, const mdl_marker_opts *o, mdl_markers **out, char *err);
+int mdl_markers_parse_c3d(const uint8_t *buf, size_t len, const char *name, const mdl_marker_opts *o,
+                          mdl_markers **out, char *err);
+int mdl_markers_parse_trc(const char *buf, size_t len, const char *name, const mdl_marker_opts *o,
+                          mdl_markers **out, char *err);
+int mdl_markers_parse_bvh(const char *buf, size_t len, const char *name, const mdl_marker_opts *o,
+                          mdl_markers **out, char *err);
+int mdl_markers_parse_csv(const char *buf, size_t len, const char *name, const mdl_marker_opts *o,
+                          mdl_markers **out, char *err);
+/* Writers take metres, Y up, and write the format's own convention (C3D: mm, Z up, float storage). */
+int mdl_markers_write_c3d(const char *path, const mdl_markers *m, char *err);
+int mdl_markers_write_csv(const char *path, const mdl_markers *m, char *err);
+/* An empty marker set of the given size (all samples invalid), for writers and tests. */
+int mdl_markers_create(int frames, int count, double fps, mdl_markers **out, char *err);
+int mdl_markers_find(const mdl_markers *m, const char *name); /* index or -1 */
+void mdl_markers_destroy(mdl_markers *m);
+
+/* ------------------------------------------------------------------ the rig (rig.c) */
+
+#define MDL_NAME_LEN 64
+
+typedef struct mdl_rig_marker {
+    char name[MDL_NAME_LEN];
+    char source[MDL_NAME_LEN]; /* label in the marker file or live source; defaults to name */
+    int vertex;                /* 0-based mesh vertex (tau in paper 2012 Sec. 4) */
+} mdl_rig_marker;
+
+typedef struct mdl_rig {
+    int nmarkers;
+    mdl_rig_marker *markers;
+    int nref;       /* 2 (the reference edge e_ref) or 3 (a third marker fixes the roll) */
+    int ref[3];     /* marker indices */
+    int nlimbs;
+    int *limb_off;  /* nlimbs + 1 offsets into limb_idx */
+    int *limb_idx;  /* marker indices; limb l is limb_idx[limb_off[l] .. limb_off[l+1]) */
+} mdl_rig;
+
+/* Parses the rig JSON of DESIGN.md; `nv` > 0 checks vertex indices against the mesh. */
+int mdl_rig_read(const char *path, int nv, mdl_rig **out, char *err);
+int mdl_rig_parse(const char *buf, size_t len, const char *name, int nv, mdl_rig **out, char *err);
+void mdl_rig_destroy(mdl_rig *r);
+
+/* ------------------------------------------------------------------ the part-based model (paper 2012) */
+
+typedef struct mdl_model mdl_model;
+
+typedef void (*mdl_progress_fn)(void *ud, const char *stage, double fraction);
+
+typedef struct mdl_train_opts {
+    int clusters;          /* 0 = automatic (Sec. 4.5) */
+    int max_clusters;      /* upper bound for the automatic choice */
+    double rigid_tol;      /* automatic clustering stops when the RMS rigid-fit residual of every
+                              cluster is below this fraction of the bounding-box diagonal */
+    int overlap_rings;     /* rings of neighbours added to each cluster (Sec. 4.5 overlaps) */
+    double explained;      /* fraction of shape variance kept per cluster (Sec. 4.4) */
+    int max_modes;         /* upper bound on modes per cluster */
+    double ridge;          /* Tikhonov regularisation of Phi and Psi (eq. 5), on standardised inputs */
+    double beta;           /* shape prior weight of eq. 7 */
+    int iterations;        /* alternating rigid/shape iterations at synthesis (Sec. 5) */
+    int use_motion_dir;    /* include directions of movement d_m (Table 1) in the features */
+    const char *name;      /* model name, stored in the file */
+    mdl_progress_fn progress;
+    void *progress_ud;
+} mdl_train_opts;
+
+void mdl_train_opts_default(mdl_train_opts *o);
+
+/* Trains from mesh frames `frames[0..nframes)` of `seq`. With `markers` NULL the rig vertices'
+ * own trajectories are the markers (virtual markers); otherwise the rig's `source` names select
+ * the markers and pose adaption (Sec. 4.2) maps the recording onto the mesh frames. */
+int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
+                    const mdl_markers *markers, const mdl_train_opts *o, mdl_model **out, char *err);
+int mdl_model_save(const mdl_model *m, const char *path, char *err);
+int mdl_model_load(const char *path, mdl_model **out, char *err);
+int mdl_model_parse(const uint8_t *buf, size_t len, const char *name, mdl_model **out, char *err);
+void mdl_model_destroy(mdl_model *m);
+
+/* Read-only views into the model (valid while the model lives). */
+typedef struct mdl_model_info {
+    const char *name;
+    int nv, nf;
+    const float *rest;     /* nv x 3, the reference frame */
+    const uint32_t *F;     /* nf x 3 */
+    uint64_t topology;     /* mdl_topology_fingerprint of F */
+    int nmarkers;
+    const mdl_rig_marker *markers;
+    int nclusters;         /* disjoint parts */
+    const int *part;       /* nv: the part (cluster) of each vertex, for colouring */
+    int ntrain;            /* training frames */
+    const int *train_frames;
+    double fps;            /* of the training mesh sequence, 0 if unknown */
+    float bbox_min[3], bbox_max[3]; /* box of all training frames */
+    int virtual_markers;   /* 1 when trained without a marker recording */
+} mdl_model_info;
+
+void mdl_model_get_info(const mdl_model *m, mdl_model_info *info);
+
+/* Writes a human-readable summary (what `meshsteer inspect` prints) into buf. */
+int mdl_model_describe(const mdl_model *m, char *buf, size_t len);
+
+/* Writes the training report (JSON) into a newly allocated string; free() it. */
+char *mdl_model_report_json(const mdl_model *m);
+
+/* Maps source labels to model markers: map[i] = index into `names` of model marker i, or -1. */
+int mdl_model_bind_markers(const mdl_model *m, const char *const *names, int count, int *map);
+
+/* ------------------------------------------------------------------ synthesis (Sec. 5) */
+
+typedef struct mdl_synth mdl_synth;
+
+typedef struct mdl_synth_info {
+    int markers_missing;  /* markers invalid in this frame */
+    int markers_held;     /* of those, replaced by their last valid position */
+    int reference_lost;   /* the reference edge was not available: the last body frame was kept */
+} mdl_synth_info;
+
+/* All memory for synthesis is allocated here; mdl_synth_frame allocates nothing. One mdl_synth per
+ * thread; the model may be shared read-only between several. */
+int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err);
+void mdl_synth_destroy(mdl_synth *s);
+/* markers: nmarkers x 3 in model marker order (metres); valid may be NULL (all valid).
+ * V: nv x 3 output. info may be NULL. Returns 0, or -EAGAIN while no reference was ever seen. */
+int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, float *V,
+                    mdl_synth_info *info);
+/* Forgets held markers and motion history (seek, new performer). */
+void mdl_synth_reset(mdl_synth *s);
+
+/* ------------------------------------------------------------------ evaluation helpers (eval.c) */
+
+/* Error after best rigid alignment (Kabsch): per-vertex distances into `dist` (nv), may be NULL.
+ * Returns the mean distance. */
+double mdl_rigid_aligned_error(const float *A, const float *B, int n, float *dist);
+
+/* A Python-style slice "start:stop[:step]" (also "N" and ":"), resolved against `count`.
+ * Allocates *idx. */
+int mdl_parse_frames(const char *spec, int count, int **idx, int *n, char *err);
+
+/* The built-in example (example.c): a procedurally generated four-legged creature with bulging
+ * limbs, its rig, and a marker recording of a different gait. */
+int mdl_example_create(int frames, mdl_meshseq **seq, mdl_rig **rig, char *err);
+int mdl_example_markers(const mdl_meshseq *seq, const mdl_rig *rig, int frames, double phase_speed,
+                        mdl_markers **out, char *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

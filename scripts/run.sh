@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# run.sh - the two commands of the README.
+#   scripts/run.sh demo   set everything up, then run the main job on the built-in example
+#   scripts/run.sh test   set everything up, then run every test
+# "Set up" = install missing Debian packages (as root; otherwise print the apt-get line and stop),
+# configure meson into build/ and compile.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PACKAGES=(build-essential meson ninja-build pkg-config clang libclang-rt-14-dev
+          libopenblas-dev liblapacke-dev libcjson-dev libpng-dev
+          libwebsockets-dev libsystemd-dev libopenni2-dev libusb-1.0-0-dev
+          nodejs npm chromium valgrind)
+
+setup_packages() {
+    local missing=()
+    for p in "${PACKAGES[@]}"; do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+    done
+    [ ${#missing[@]} -eq 0 ] && return 0
+    if [ "$(id -u)" -ne 0 ]; then
+        echo "meshsteer needs these Debian packages; run as root:" >&2
+        echo "  apt-get update && apt-get install -y ${missing[*]}" >&2
+        exit 2
+    fi
+    echo "installing: ${missing[*]}" >&2
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq >/dev/null || apt-get update
+    apt-get install -y -qq "${missing[@]}" >/dev/null
+}
+
+setup_build() {
+    local dir=$1; shift
+    if [ ! -f "$dir/build.ninja" ]; then
+        meson setup "$dir" "$@"
+    fi
+    meson compile -C "$dir"
+}
+
+cmd=${1:-}
+case "$cmd" in
+demo)
+    setup_packages
+    setup_build build
+    exec build/server/meshsteer demo
+    ;;
+test)
+    setup_packages
+    werror=()
+    [ "${CI:-}" = "true" ] && werror=(-Dwerror=true)
+    setup_build build "${werror[@]}"
+    meson test -C build --print-errorlogs --num-processes 2
+    # Once more under AddressSanitizer and UndefinedBehaviorSanitizer (unit suites).
+    setup_build build-asan -Db_sanitize=address,undefined -Db_lundef=false "${werror[@]}"
+    ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+        meson test -C build-asan --print-errorlogs --num-processes 2 --suite model
+    ;;
+*)
+    echo "usage: scripts/run.sh demo|test" >&2
+    exit 2
+    ;;
+esac

@@ -1,0 +1,116 @@
+/* cli.c - usage errors, terminal progress and option parsing for the meshsteer tool. */
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <unistd.h>
+
+static int vfail(const char *cmd, int status, const char *fmt, va_list ap)
+{
+    fprintf(stderr, "meshsteer %s: ", cmd);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    return status;
+}
+
+int cli_usage_error(const char *cmd, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int r = vfail(cmd, CLI_EXIT_USAGE, fmt, ap);
+    va_end(ap);
+    return r;
+}
+
+int cli_fail(const char *cmd, int status, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int r = vfail(cmd, status, fmt, ap);
+    va_end(ap);
+    return r;
+}
+
+static int progress_shown;
+
+void cli_progress(void *ud, const char *stage, double fraction)
+{
+    if (!isatty(STDERR_FILENO))
+        return;
+    int pct = (int)lround(fraction * 100.0);
+    if (pct < 0)
+        pct = 0;
+    if (pct > 100)
+        pct = 100;
+    fprintf(stderr, "\r\033[K%s: %s %3d%%", ud ? (const char *)ud : "meshsteer", stage, pct);
+    fflush(stderr);
+    progress_shown = 1;
+}
+
+void cli_progress_done(void)
+{
+    if (progress_shown && isatty(STDERR_FILENO)) {
+        fputs("\r\033[K", stderr);
+        fflush(stderr);
+    }
+    progress_shown = 0;
+}
+
+int cli_parse_double(const char *cmd, const char *opt, const char *s, double *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || end == s || *end || !isfinite(v)) {
+        cli_usage_error(cmd, "%s: '%s' is not a number", opt, s);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+int cli_parse_int(const char *cmd, const char *opt, const char *s, int *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno || end == s || *end || v < -2147483647L || v > 2147483647L) {
+        cli_usage_error(cmd, "%s: '%s' is not an integer", opt, s);
+        return -1;
+    }
+    *out = (int)v;
+    return 0;
+}
+
+int cli_has_suffix(const char *s, const char *suffix)
+{
+    size_t a = strlen(s), b = strlen(suffix);
+    return a >= b && strcasecmp(s + a - b, suffix) == 0;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+void cli_percentiles(double *v, int n, double *median, double *p99)
+{
+    if (n <= 0) {
+        *median = *p99 = 0;
+        return;
+    }
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    *median = n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+    int k = (int)ceil(0.99 * n) - 1;
+    if (k < 0)
+        k = 0;
+    if (k >= n)
+        k = n - 1;
+    *p99 = v[k];
+}

@@ -1,0 +1,50 @@
+/* meshsteer.c - the command-line tool: train, synth, eval, inspect, render, bench, example.
+ * Each command lives in its own cmd_*.c file; this file only dispatches. */
+#include "cli.h"
+
+#include <stdio.h>
+#include <string.h>
+
+/* model commands (cmd_train.c, cmd_synth.c, cmd_eval.c, cmd_inspect.c, cmd_bench.c) */
+
+/* render and example commands (cmd_render.c, cmd_example.c) */
+
+static const cli_command commands[] = {
+    /* model commands */
+
+    /* render and example commands */
+
+    {NULL, NULL, NULL},
+};
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: meshsteer COMMAND [OPTIONS]\n\n"
+               "Steers detailed mesh animations from a few tracked points (Voegele et al. 2012).\n\n"
+               "commands:\n");
+    for (const cli_command *c = commands; c->name; c++)
+        fprintf(f, "  %-9s %s\n", c->name, c->summary);
+    fprintf(f, "\n'meshsteer COMMAND --help' describes a command's options.\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return CLI_EXIT_USAGE;
+    }
+    if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help")) {
+        usage(stdout);
+        return CLI_EXIT_OK;
+    }
+    if (!strcmp(argv[1], "--version")) {
+        printf("meshsteer %s\n", MESHSTEER_VERSION);
+        return CLI_EXIT_OK;
+    }
+    for (const cli_command *c = commands; c->name; c++)
+        if (!strcmp(argv[1], c->name))
+            return c->run(argc - 1, argv + 1);
+    fprintf(stderr, "meshsteer: unknown command '%s'\n", argv[1]);
+    usage(stderr);
+    return CLI_EXIT_USAGE;
+}

@@ -1,0 +1,84 @@
+/* test.h - assertions that print both sides (libuv ASSERT_EQ style), and the data path.
+ * A failed assertion prints file:line, the expression and both values, and exits 1. Tests that
+ * need ../shared/data and do not find it exit 77 (skip). */
+#ifndef MESHSTEER_TEST_H
+#define MESHSTEER_TEST_H
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define ASSERT(c)                                                                                  \
+    do {                                                                                           \
+        if (!(c)) {                                                                                \
+            fprintf(stderr, "%s:%d: assertion failed: %s\n", __FILE__, __LINE__, #c);             \
+            exit(1);                                                                               \
+        }                                                                                          \
+    } while (0)
+
+#define ASSERT_INT_EQ(a, b)                                                                        \
+    do {                                                                                           \
+        long long _a = (long long)(a), _b = (long long)(b);                                        \
+        if (_a != _b) {                                                                            \
+            fprintf(stderr, "%s:%d: %s == %s failed: %lld != %lld\n", __FILE__, __LINE__, #a, #b, \
+                    _a, _b);                                                                       \
+            exit(1);                                                                               \
+        }                                                                                          \
+    } while (0)
+
+/* |a - b| <= tol, printing both, the tolerance and an index the caller names. */
+#define ASSERT_NEAR_I(a, b, tol, idx)                                                              \
+    do {                                                                                           \
+        double _a = (double)(a), _b = (double)(b), _t = (double)(tol);                             \
+        if (!(fabs(_a - _b) <= _t)) {                                                              \
+            fprintf(stderr, "%s:%d: |%s - %s| <= %g failed at index %ld: %.9g vs %.9g\n",          \
+                    __FILE__, __LINE__, #a, #b, _t, (long)(idx), _a, _b);                           \
+            exit(1);                                                                               \
+        }                                                                                          \
+    } while (0)
+#define ASSERT_NEAR(a, b, tol) ASSERT_NEAR_I(a, b, tol, -1)
+
+#define ASSERT_OK(expr, errbuf)                                                                    \
+    do {                                                                                           \
+        int _r = (expr);                                                                           \
+        if (_r != 0) {                                                                             \
+            fprintf(stderr, "%s:%d: %s returned %d: %s\n", __FILE__, __LINE__, #expr, _r,          \
+                    (errbuf));                                                                     \
+            exit(1);                                                                               \
+        }                                                                                          \
+    } while (0)
+
+/* Path of a file in the shared data set; exits 77 (skip) when the data set is absent. */
+static inline const char *test_data(const char *rel)
+{
+    static char buf[4][4096];
+    static int k;
+    const char *root = getenv("MESHSTEER_DATA");
+    if (!root)
+        root = "../shared/data";
+    char *b = buf[k++ & 3];
+    snprintf(b, sizeof buf[0], "%s/%s", root, rel);
+    struct stat st;
+    if (stat(b, &st) != 0) {
+        fprintf(stderr, "skip: %s not found\n", b);
+        exit(77);
+    }
+    return b;
+}
+
+/* Path of a file in the source tree (tests/data, rigs, recordings). */
+static inline const char *test_src(const char *rel)
+{
+    static char buf[4][4096];
+    static int k;
+    const char *root = getenv("MESHSTEER_SRC");
+    if (!root)
+        root = ".";
+    char *b = buf[k++ & 3];
+    snprintf(b, sizeof buf[0], "%s/%s", root, rel);
+    return b;
+}
+
+#endif
