@@ -260,11 +260,21 @@ void mdl_eval_result_fini(mdl_eval_result *r);
  * Allocates *idx. */
 int mdl_parse_frames(const char *spec, int count, int **idx, int *n, char *err);
 
-/* The built-in example (example.c): a procedurally generated four-legged creature with bulging
- * limbs, its rig, and a marker recording of a different gait. */
+/* The built-in example (example.c): a procedurally generated four-legged creature (about 4800
+ * vertices, 1.7 m long, Y up, facing +X) with bulging limbs, its rig, and a marker recording of a
+ * different gait. Deterministic: equal arguments give identical bytes.
+ * mdl_example_create: `frames` frames (1..100000) of a walk in place at 30 fps into *seq, and the rig
+ *   into *rig (either may be NULL): markers lf_foot rf_foot lh_foot rh_foot head tail withers croup;
+ *   reference withers-croup; limbs withers-lf_foot, withers-rf_foot, croup-lh_foot, croup-rh_foot,
+ *   withers-head, croup-tail. Free with mdl_meshseq_destroy / mdl_rig_destroy (each array and the
+ *   struct are separately malloc'd).
+ * mdl_example_markers: the rig vertices' positions during a trot of the same creature, `speed` times
+ *   the walk's cycle rate (1 = same rate), with other amplitudes and starting phase: names = the rig's
+ *   source names, fps 30, all valid (struct, P, valid, names and each names[i] separately malloc'd;
+ *   mdl_markers_destroy). *truth (may be NULL) gets the matching ground-truth mesh frames. */
 int mdl_example_create(int frames, mdl_meshseq **seq, mdl_rig **rig, char *err);
-int mdl_example_markers(const mdl_meshseq *seq, const mdl_rig *rig, int frames, double phase_speed,
-                        mdl_markers **out, char *err);
+int mdl_example_markers(const mdl_rig *rig, int frames, double speed, mdl_markers **out,
+                        mdl_meshseq **truth, char *err);
 
 #ifdef __cplusplus
 }
