@@ -72,7 +72,7 @@ static size_t next_token(const char **p, const char *end, const char **tok)
  * between them, so tokens whose A has low bits within 8 of 2^28 go to strtod, as do values outside
  * the normal float range. (Clinger 1990, "How to read floating point numbers accurately", Sec. 3
  * fast path, with an explicit error bound instead of the exact-mantissa condition.) */
-static int fast_float(const char *p, const char *e, float *out)
+static const char *scan_float(const char *p, const char *e, float *out)
 {
     static const double pow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
                                      1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
@@ -100,39 +100,38 @@ static int fast_float(const char *p, const char *e, float *out)
             }
         }
     if (!any)
-        return -1;
+        return NULL;
     if (p < e && (*p == 'e' || *p == 'E')) {
         int eneg = 0, ev = 0;
         p++;
         if (p < e && (*p == '-' || *p == '+'))
             eneg = *p++ == '-';
-        if (p == e)
-            return -1;
+        const char *ed = p;
         for (; p < e && *p >= '0' && *p <= '9'; p++)
             if (ev < 10000)
                 ev = ev * 10 + (*p - '0');
+        if (p == ed)
+            return NULL;
         exp10 += eneg ? -ev : ev;
     }
-    if (p != e)
-        return -1;
     if (m == 0) {
         *out = neg ? -0.0f : 0.0f;
-        return 0;
+        return p;
     }
     if (exp10 < -22 || exp10 > 22)
-        return -1;
+        return NULL;
     double a = (double)m;
     a = exp10 < 0 ? a / pow10[-exp10] : a * pow10[exp10];
     if (!(a >= 0x1p-125 && a < 0x1p127))
-        return -1;
+        return NULL;
     uint64_t bits;
     memcpy(&bits, &a, sizeof bits);
     uint64_t low = bits & ((1ull << 29) - 1);
     if (low > (1ull << 28) - 8 && low < (1ull << 28) + 8)
-        return -1;
+        return NULL;
     float f = (float)a;
     *out = neg ? -f : f;
-    return 0;
+    return p;
 }
 
 static int parse_float(obj_parser *ps, const char *tok, size_t n, int which, float *out)
@@ -141,8 +140,6 @@ static int parse_float(obj_parser *ps, const char *tok, size_t n, int which, flo
     if (n == 0)
         return mdl__err(ps->err, MDL_EFORMAT, "%s:%ld: vertex has only %d coordinates, need 3",
                         ps->name, ps->line, which);
-    if (n <= OBJ_MAX_TOKEN && fast_float(tok, tok + n, out) == 0)
-        return 0;
     if (n > OBJ_MAX_TOKEN)
         return mdl__err(ps->err, MDL_EFORMAT, "%s:%ld: bad number: coordinate %d is %zu characters long",
                         ps->name, ps->line, which + 1, n);
@@ -189,7 +186,14 @@ static int parse_vertex(obj_parser *ps, const char *p, const char *end)
                         ps->line, ps->nv + 1);
     float *v = ps->V + ps->nv * 3;
     for (int k = 0; k < 3; k++) {
-        const char *tok;
+        while (p < end && is_space(*p))
+            p++;
+        const char *q = p < end && *p != '#' ? scan_float(p, end, &v[k]) : NULL;
+        if (q && (q == end || is_space(*q) || *q == '#')) {
+            p = q;
+            continue;
+        }
+        const char *tok; /* not a plain decimal, or too close to call: strtod decides */
         size_t n = next_token(&p, end, &tok);
         int r = parse_float(ps, tok, n, k, &v[k]);
         if (r)
@@ -367,7 +371,7 @@ int mdl_mesh_read_obj(const char *path, mdl_mesh **out, char *err)
 
 int mdl_mesh_write_obj(const char *path, const float *V, int nv, const uint32_t *F, int nf, char *err)
 {
-    if (nv <= 0 || nf < 0 || !V || (nf > 0 && !F))
+    if (nv <= 0 || nf <= 0 || !V || !F)
         return mdl__err(err, -EINVAL, "%s: invalid mesh (%d vertices, %d faces)", path, nv, nf);
     for (long i = 0; i < 3L * nf; i++)
         if (F[i] >= (uint32_t)nv)

@@ -162,11 +162,16 @@ static void test_corrupt(void)
     expect_error("v 0 0 0\nv 1 0 0\n", "t.obj: no faces");
     char longnum[300] = "v 0 0 0.";
     memset(longnum + 8, '1', 200);
-    strcpy(longnum + 208, "\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-    expect_error(longnum, "t.obj:1: bad number: coordinate 3 is 202 characters long");
+    strcpy(longnum + 208, "x\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    expect_error(longnum, "t.obj:1: bad number: coordinate 3 is 203 characters long");
 
     char err[MDL_ERR_LEN] = "";
     mdl_mesh *m;
+    /* a long but well-formed decimal is fine */
+    longnum[208] = '\n';
+    ASSERT_OK(parse(longnum, &m, err), err);
+    ASSERT(m->V[2] == (float)(1.0 / 9.0));
+    mdl_mesh_destroy(m);
     ASSERT_INT_EQ(mdl_mesh_read_obj("/nonexistent/x.obj", &m, err), -ENOENT);
     ASSERT(strstr(err, "/nonexistent/x.obj"));
     ASSERT(m == NULL);
