@@ -132,6 +132,8 @@ static void make_connected(cl_state *s, int min_size)
             double be = INFINITY;
             for (int i = s->g->off[v]; i < s->g->off[v + 1]; i++) {
                 int c = s->part[s->g->nbr[i]];
+                if (c >= s->k) /* assigned earlier in this sweep */
+                    c -= s->k;
                 if (c < 0 || c == bc)
                     continue;
                 double e = vertex_error(s, v, c);

@@ -5,7 +5,13 @@
 #include <stdio.h>
 #include <string.h>
 
-/* model commands (cmd_train.c, cmd_synth.c, cmd_eval.c, cmd_inspect.c, cmd_bench.c) */
+/* model commands (cmd_train.c, cmd_synth.c, cmd_eval.c, cmd_inspect.c, cmd_bench.c, cmd_demo.c) */
+int cmd_train(int argc, char **argv);
+int cmd_synth(int argc, char **argv);
+int cmd_eval(int argc, char **argv);
+int cmd_inspect(int argc, char **argv);
+int cmd_bench(int argc, char **argv);
+int cmd_demo(int argc, char **argv);
 
 /* render and example commands (cmd_render.c, cmd_example.c) */
 int cmd_render(int argc, char **argv);
@@ -13,10 +19,16 @@ int cmd_example(int argc, char **argv);
 
 static const cli_command commands[] = {
     /* model commands */
+    {"demo", "train on the built-in example and synthesise its recording", cmd_demo},
+    {"train", "learn a model from a mesh sequence and a rig", cmd_train},
+    {"synth", "drive a model with a marker recording, write PC2/OBJ", cmd_synth},
+    {"eval", "measure a model against ground-truth frames (JSON)", cmd_eval},
+    {"inspect", "summarise a model file", cmd_inspect},
+    {"bench", "time training and per-frame synthesis (median, p99)", cmd_bench},
 
     /* render and example commands */
-    /* {"render", "draw a contact sheet (PNG) of mesh frames", cmd_render}, */
-    /* {"example", "write the built-in example creature, rig and markers", cmd_example}, */
+    {"render", "draw a contact sheet (PNG) of mesh frames", cmd_render},
+    {"example", "write the built-in example creature, rig and markers", cmd_example},
 
     {NULL, NULL, NULL},
 };
