@@ -148,10 +148,16 @@ typedef struct mdl_train_opts {
     int overlap_rings;     /* rings of neighbours added to each cluster (Sec. 4.5 overlaps) */
     double explained;      /* fraction of shape variance kept per cluster (Sec. 4.4) */
     int max_modes;         /* upper bound on modes per cluster */
-    double ridge;          /* Tikhonov regularisation of Phi and Psi (eq. 5), on standardised inputs */
+    double ridge;          /* Tikhonov regularisation of Phi and Psi (eq. 5), on standardised inputs;
+                              < 0: chosen by leave-one-out error */
+    int linear;            /* 1: the purely linear regression of eq. 5; 0: with radial basis
+                              features (regress.h) */
     double beta;           /* shape prior weight of eq. 7 */
     int iterations;        /* alternating rigid/shape iterations at synthesis (Sec. 5) */
     int use_motion_dir;    /* include directions of movement d_m (Table 1) in the features */
+    double marker_weight;  /* markers as alignment targets at synthesis (synth.c); < 0: automatic,
+                              1 with virtual markers (they live in the mesh's space), else 0 */
+    int relax;             /* alignment sweeps against all neighbours after the greedy pass */
     const char *name;      /* model name, stored in the file */
     mdl_progress_fn progress;
     void *progress_ud;

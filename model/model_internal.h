@@ -30,8 +30,12 @@ typedef struct mdl_limb_reg {
     int nin;        /* features d_l (Table 1), computed by mdl__limb_features */
     int nout;       /* outputs: sum over the limb's instances of 7 + modes */
     double *feat_scale, *feat_shift; /* pose adaption (Sec. 4.2): f' = scale * f + shift; nin */
-    double *in_mean, *in_sd;         /* standardisation of adapted features; nin */
-    double *coef;   /* (nin + 1) x nout, column-major; row 0 is the intercept (eq. 5 with [M; 1]) */
+    double *zmean, *zsd;             /* standardisation of adapted features for the kernel; nin */
+    int ncent;                       /* radial basis centres (regress.h), 0 = purely linear */
+    double *cent;                    /* ncent x nin, standardised feature space, row-major */
+    double width;                    /* kernel width in standardised units */
+    double *in_mean, *in_sd;         /* standardisation of the design row; nin + ncent */
+    double *coef;   /* (nin + ncent + 1) x nout, column-major; row 0 is the intercept */
     double ridge;   /* the regularisation that was chosen */
     double rms_train, rms_loo; /* regression residuals (report) */
 } mdl_limb_reg;
@@ -61,6 +65,9 @@ struct mdl_model {
     int iterations;
     int use_motion_dir;
     double prior_weight;    /* weight of the predicted rotation in the greedy alignment */
+    double marker_weight;   /* weight of a marker as an alignment target, relative to the overlap
+                               points of the same instance (0: markers only drive the regressions) */
+    int relax;              /* extra alignment sweeps against all neighbours (synth.c) */
 
     /* disjoint parts (clusters) */
     int nparts;

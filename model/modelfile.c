@@ -50,6 +50,9 @@ void mdl__model_free(struct mdl_model *m)
         for (int l = 0; l < m->nlimbs; l++) {
             free(m->reg[l].feat_scale);
             free(m->reg[l].feat_shift);
+            free(m->reg[l].zmean);
+            free(m->reg[l].zsd);
+            free(m->reg[l].cent);
             free(m->reg[l].in_mean);
             free(m->reg[l].in_sd);
             free(m->reg[l].coef);
@@ -171,6 +174,8 @@ int mdl_model_save(const mdl_model *m, const char *path, char *err)
     put_u32(&b, (uint32_t)m->iterations);
     put_u32(&b, (uint32_t)m->use_motion_dir);
     put_f64(&b, m->prior_weight);
+    put_f64(&b, m->marker_weight);
+    put_u32(&b, (uint32_t)m->relax);
     put_f32s(&b, m->rest, 3 * (size_t)m->nv);
     put_u32s(&b, m->F, 3 * (size_t)m->nf);
     put_i32s(&b, m->train_frames, (size_t)m->ntrain);
@@ -214,9 +219,14 @@ int mdl_model_save(const mdl_model *m, const char *path, char *err)
         put_u32(&b, (uint32_t)r->nout);
         put_f64s(&b, r->feat_scale, (size_t)r->nin);
         put_f64s(&b, r->feat_shift, (size_t)r->nin);
-        put_f64s(&b, r->in_mean, (size_t)r->nin);
-        put_f64s(&b, r->in_sd, (size_t)r->nin);
-        put_f64s(&b, r->coef, (size_t)(r->nin + 1) * r->nout);
+        put_f64s(&b, r->zmean, (size_t)r->nin);
+        put_f64s(&b, r->zsd, (size_t)r->nin);
+        put_u32(&b, (uint32_t)r->ncent);
+        put_f64s(&b, r->cent, (size_t)r->ncent * r->nin);
+        put_f64(&b, r->width);
+        put_f64s(&b, r->in_mean, (size_t)(r->nin + r->ncent));
+        put_f64s(&b, r->in_sd, (size_t)(r->nin + r->ncent));
+        put_f64s(&b, r->coef, (size_t)(r->nin + r->ncent + 1) * r->nout);
         put_f64(&b, r->ridge);
         put_f64(&b, r->rms_train);
         put_f64(&b, r->rms_loo);
@@ -474,6 +484,8 @@ int mdl_model_parse(const uint8_t *buf, size_t len, const char *name, mdl_model 
     m->iterations = get_int(&b, "iterations", 0, 100);
     m->use_motion_dir = get_int(&b, "use_motion_dir", 0, 1);
     m->prior_weight = get_f64(&b, "prior_weight");
+    m->marker_weight = get_f64(&b, "marker_weight");
+    m->relax = get_int(&b, "relax", 0, 100);
     if (b.rc)
         goto bad;
     int nv = m->nv;
@@ -596,15 +608,25 @@ int mdl_model_parse(const uint8_t *buf, size_t len, const char *name, mdl_model 
         }
         r->feat_scale = get_f64s(&b, (size_t)r->nin, "feat_scale");
         r->feat_shift = get_f64s(&b, (size_t)r->nin, "feat_shift");
-        r->in_mean = get_f64s(&b, (size_t)r->nin, "in_mean");
-        r->in_sd = get_f64s(&b, (size_t)r->nin, "in_sd");
-        r->coef = get_f64s(&b, (size_t)(r->nin + 1) * r->nout, "coef");
+        r->zmean = get_f64s(&b, (size_t)r->nin, "zmean");
+        r->zsd = get_f64s(&b, (size_t)r->nin, "zsd");
+        r->ncent = get_int(&b, "kernel centres", 0, 1 << 16);
+        r->cent = get_f64s(&b, (size_t)r->ncent * r->nin, "cent");
+        r->width = get_f64(&b, "kernel width");
+        r->in_mean = get_f64s(&b, (size_t)(r->nin + r->ncent), "in_mean");
+        r->in_sd = get_f64s(&b, (size_t)(r->nin + r->ncent), "in_sd");
+        r->coef = get_f64s(&b, (size_t)(r->nin + r->ncent + 1) * r->nout, "coef");
         r->ridge = get_f64(&b, "ridge");
         r->rms_train = get_f64(&b, "rms_train");
         r->rms_loo = get_f64(&b, "rms_loo");
-        for (int j = 0; j < r->nin && !b.rc; j++)
+        for (int j = 0; j < r->nin + r->ncent && !b.rc; j++)
             if (!(r->in_sd[j] > 0))
                 fail(&b, "a feature scale is not positive");
+        for (int j = 0; j < r->nin && !b.rc; j++)
+            if (!(r->zsd[j] > 0))
+                fail(&b, "a feature scale is not positive");
+        if (!b.rc && r->ncent > 0 && !(r->width > 0))
+            fail(&b, "a kernel width is not positive");
     }
     if (b.rc)
         goto bad;
@@ -793,11 +815,13 @@ int mdl_model_describe(const mdl_model *m, char *buf, size_t len)
         APPEND("  path in H:");
         for (int j = m->lpath_off[l]; j < m->lpath_off[l + 1]; j++)
             APPEND(" %d", m->lpath[j]);
-        APPEND("  regression: %d -> %d, ridge %g, residual %.3f (leave-one-out %.3f)\n",
-               m->reg[l].nin, m->reg[l].nout, m->reg[l].ridge, m->reg[l].rms_train, m->reg[l].rms_loo);
+        APPEND("  regression: %d (+%d rbf) -> %d, ridge %g, residual %.3f (leave-one-out %.3f)\n",
+               m->reg[l].nin, m->reg[l].ncent, m->reg[l].nout, m->reg[l].ridge, m->reg[l].rms_train,
+               m->reg[l].rms_loo);
     }
-    APPEND("synthesis  beta %g, %d iterations, motion directions %s\n", m->beta, m->iterations,
-           m->use_motion_dir ? "on" : "off");
+    APPEND("synthesis  beta %g, %d iterations, %d relaxation sweeps, marker weight %g, motion "
+           "directions %s\n",
+           m->beta, m->iterations, m->relax, m->marker_weight, m->use_motion_dir ? "on" : "off");
     return at < len ? 0 : -ENOSPC;
 }
 

@@ -14,9 +14,10 @@ static const double grid[] = {1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 3e-2, 0.1, 0.3, 1, 3
 
 /* Solves for B (d x q) with (Z^T Z + lam I) B = Z^T Yc; returns train and LOO errors (weighted). */
 static int solve_one(const double *Z, int n, int d, const double *Yc, int q, const double *yw,
-                     double lam, double *G, double *B, double *W, double *err_train,
-                     double *err_loo, char *err)
+                     double lam, double *G, double *B, double *W, double *G2, double *B2,
+                     double *col_train, double *col_loo, char *err)
 {
+    int explicit_loo = n <= 2 * d + 2;
     mdl_la_gemm('T', 'N', d, d, n, 1.0, Z, n, Z, n, 0.0, G, d);
     for (int i = 0; i < d; i++)
         G[i * d + i] += lam * n;
@@ -32,31 +33,64 @@ static int solve_one(const double *Z, int n, int d, const double *Yc, int q, con
             W[i * d + j] = Z[j * n + i];
     if ((r = mdl_la_potrs(d, n, G, d, W, d, err)))
         return r;
-    double et = 0, el = 0;
+    for (int c = 0; c < q; c++)
+        col_loo[c] = col_train[c] = 0;
     for (int i = 0; i < n; i++) {
-        double h = 0;
+        double h = 1.0 / n; /* the intercept's share of the hat matrix */
         for (int j = 0; j < d; j++)
             h += Z[j * n + i] * W[i * d + j];
-        double denom = 1 - h;
-        if (denom < 1e-6)
-            denom = 1e-6;
         for (int c = 0; c < q; c++) {
             double pred = 0;
             for (int j = 0; j < d; j++)
                 pred += Z[j * n + i] * B[c * d + j];
             double res = Yc[c * n + i] - pred;
-            et += yw[c] * res * res;
-            el += yw[c] * (res / denom) * (res / denom);
+            col_train[c] += yw[c] * res * res;
+            if (!explicit_loo) {
+                double denom = 1 - h > 1e-6 ? 1 - h : 1e-6;
+                col_loo[c] += yw[c] * (res / denom) * (res / denom);
+            }
         }
     }
-    *err_train = et;
-    *err_loo = el;
+    if (explicit_loo) {
+        /* few samples for many columns: the hat-matrix shortcut degenerates (h_ii -> 1), so
+         * refit without each sample in turn; G2/B2 are scratch of the same sizes as G/B */
+        /* Z and Yc are centred over all n samples; without sample i the means become
+         * zb = -z_i / (n - 1) and yb = -y_i / (n - 1), and the unpenalised intercept must be
+         * re-estimated from the others, or it leaks y_i back into the fit. */
+        double *zb = W; /* W is free here: d scratch */
+        for (int i = 0; i < n; i++) {
+            mdl_la_gemm('T', 'N', d, d, n, 1.0, Z, n, Z, n, 0.0, G2, d);
+            mdl_la_gemm('T', 'N', d, q, n, 1.0, Z, n, Yc, n, 0.0, B2, d);
+            for (int a = 0; a < d; a++)
+                zb[a] = -Z[a * n + i] / (n - 1);
+            for (int a = 0; a < d; a++) {
+                for (int b = 0; b < d; b++)
+                    G2[b * d + a] -= Z[a * n + i] * Z[b * n + i] + (n - 1) * zb[a] * zb[b];
+                for (int c = 0; c < q; c++)
+                    B2[c * d + a] -= Z[a * n + i] * Yc[c * n + i] +
+                                     (n - 1) * zb[a] * (-Yc[c * n + i] / (n - 1));
+                G2[a * d + a] += lam * (n - 1);
+            }
+            int r = mdl_la_potrf(d, G2, d, err);
+            if (!r)
+                r = mdl_la_potrs(d, q, G2, d, B2, d, err);
+            if (r)
+                return r;
+            for (int c = 0; c < q; c++) {
+                double pred = -Yc[c * n + i] / (n - 1);
+                for (int j = 0; j < d; j++)
+                    pred += (Z[j * n + i] - zb[j]) * B2[c * d + j];
+                double res = Yc[c * n + i] - pred;
+                col_loo[c] += yw[c] * res * res;
+            }
+        }
+    }
     return 0;
 }
 
 int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double ridge,
-                   double *mean, double *sd, double *coef, double *chosen, double *rms_train,
-                   double *rms_loo, char *err)
+                   const double *colw, double *mean, double *sd, double *coef, double *chosen,
+                   double *rms_train, double *rms_loo, char *err)
 {
     if (n < 1 || d < 0 || q < 1)
         return mdl__err(err, -EINVAL, "regression: %d samples, %d inputs, %d outputs", n, d, q);
@@ -69,8 +103,10 @@ int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double
     double *B = mdl__calloc((size_t)dd * q, sizeof *B);
     double *Bbest = mdl__calloc((size_t)dd * q, sizeof *Bbest);
     double *W = mdl__calloc((size_t)dd * n, sizeof *W);
+    double *G2 = mdl__calloc((size_t)dd * dd, sizeof *G2);
+    double *B2 = mdl__calloc((size_t)dd * q, sizeof *B2);
     int rc = 0;
-    if (!Z || !Yc || !ymean || !yw || !G || !B || !Bbest || !W) {
+    if (!Z || !Yc || !ymean || !yw || !G || !B || !Bbest || !W || !G2 || !B2) {
         rc = mdl__err(err, -ENOMEM, "regression: out of memory");
         goto out;
     }
@@ -98,10 +134,10 @@ int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double
             v += Yc[c * n + i] * Yc[c * n + i];
         }
         ymean[c] = m;
-        yw[c] = v / n > 1e-18 ? 1 / (v / n) : 0;
-        wsum += yw[c] > 0;
+        yw[c] = colw ? colw[c] : (v / n > 1e-18 ? 1 / (v / n) : 0);
+        wsum += yw[c] * v;
     }
-    if (wsum == 0)
+    if (!(wsum > 0))
         wsum = 1;
     if (d == 0) {
         for (int c = 0; c < q; c++)
@@ -110,27 +146,60 @@ int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double
         *rms_train = *rms_loo = 1;
         goto out;
     }
-    double best = INFINITY, best_lam = ridge, best_t = 0;
+    /* the regulariser is chosen per output column: each column keeps the solution whose
+     * leave-one-out error is smallest for it */
+    double *ct = mdl__calloc((size_t)q, sizeof *ct), *cl = mdl__calloc((size_t)q, sizeof *cl);
+    double *bt = mdl__calloc((size_t)q, sizeof *bt), *bl = mdl__calloc((size_t)q, sizeof *bl);
+    double *lam_c = mdl__calloc((size_t)q, sizeof *lam_c);
+    if (!ct || !cl || !bt || !bl || !lam_c) {
+        free(lam_c);
+        free(ct);
+        free(cl);
+        free(bt);
+        free(bl);
+        rc = mdl__err(err, -ENOMEM, "regression: out of memory");
+        goto out;
+    }
+    for (int c = 0; c < q; c++)
+        bl[c] = INFINITY;
     int ng = ridge < 0 ? (int)(sizeof grid / sizeof *grid) : 1;
     for (int g = 0; g < ng; g++) {
-        double lam = ridge < 0 ? grid[g] : ridge, et, el;
+        double lam = ridge < 0 ? grid[g] : ridge;
         char e2[MDL_ERR_LEN];
-        int r = solve_one(Z, n, d, Yc, q, yw, lam, G, B, W, &et, &el, e2);
+        int r = solve_one(Z, n, d, Yc, q, yw, lam, G, B, W, G2, B2, ct, cl, e2);
         if (r) {
             if (ridge >= 0) {
                 rc = mdl__err(err, r, "regression: %s", e2);
-                goto out;
+                break;
             }
             continue;
         }
-        if (el < best) {
-            best = el;
-            best_lam = lam;
-            best_t = et;
-            memcpy(Bbest, B, sizeof *B * (size_t)d * q);
-        }
+        for (int c = 0; c < q; c++)
+            if (cl[c] < bl[c]) {
+                bl[c] = cl[c];
+                bt[c] = ct[c];
+                lam_c[c] = lam;
+                memcpy(Bbest + (size_t)c * d, B + (size_t)c * d, sizeof *B * (size_t)d);
+            }
     }
-    if (!isfinite(best)) {
+    double tl = 0, tt = 0, lsum = 0;
+    int found = 1;
+    for (int c = 0; c < q; c++) {
+        if (!isfinite(bl[c]))
+            found = 0;
+        tl += bl[c];
+        tt += bt[c];
+        lsum += log(lam_c[c] > 0 ? lam_c[c] : 1e-300);
+    }
+    *chosen = exp(lsum / q); /* geometric mean of the per-column choices (report) */
+    free(ct);
+    free(cl);
+    free(bt);
+    free(bl);
+    free(lam_c);
+    if (rc)
+        goto out;
+    if (!found) {
         rc = mdl__err(err, MDL_ENUMERIC, "regression: no regularisation gave a solvable system");
         goto out;
     }
@@ -139,10 +208,9 @@ int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double
         for (int j = 0; j < d; j++)
             coef[c * (d + 1) + 1 + j] = Bbest[c * d + j];
     }
-    *chosen = best_lam;
-    /* relative residuals: 0 = perfect, 1 = no better than the mean */
-    *rms_train = sqrt(best_t / (n * wsum));
-    *rms_loo = sqrt(best / (n * wsum));
+    /* relative residuals (weighted over columns): 0 = perfect, 1 = no better than the mean */
+    *rms_train = sqrt(tt / wsum);
+    *rms_loo = sqrt(tl / wsum);
 out:
     free(Z);
     free(Yc);
@@ -152,6 +220,8 @@ out:
     free(B);
     free(Bbest);
     free(W);
+    free(G2);
+    free(B2);
     return rc;
 }
 
@@ -162,4 +232,109 @@ void mdl__ridge_predict(const double *coef, int d, int q, const double *mean, co
     for (int j = 0; j < d; j++)
         z[1 + j] = (x[j] - mean[j]) / sd[j];
     mdl_la_gemv('T', d + 1, q, 1.0, coef, d + 1, z, 0.0, y);
+}
+
+void mdl__design_row(const double *x, int d, const double *zmean, const double *zsd,
+                     const double *cent, int m, double width, double *row)
+{
+    for (int j = 0; j < d; j++)
+        row[j] = x[j];
+    double inv = 1.0 / (2 * width * width);
+    for (int c = 0; c < m; c++) {
+        double s = 0;
+        for (int j = 0; j < d; j++) {
+            double z = (x[j] - zmean[j]) / zsd[j] - cent[(size_t)c * d + j];
+            s += z * z;
+        }
+        row[d + c] = exp(-s * inv);
+    }
+}
+
+int mdl__regression_fit(const double *X, int n, int d, const double *Y, int q, double ridge,
+                        const double *colw, int use_rbf, double **zmean, double **zsd, double **cent, int *m,
+                        double *width, double **mean, double **sd, double **coef, double *chosen,
+                        double *rms_train, double *rms_loo, char *err)
+{
+    int mm = use_rbf && d > 0 ? (n < MDL_RBF_MAX_CENTRES ? n : MDL_RBF_MAX_CENTRES) : 0;
+    int nx = d + mm, rc = 0;
+    *zmean = mdl__calloc((size_t)d + 1, sizeof(double));
+    *zsd = mdl__calloc((size_t)d + 1, sizeof(double));
+    *cent = mdl__calloc((size_t)mm * d + 1, sizeof(double));
+    *mean = mdl__calloc((size_t)nx + 1, sizeof(double));
+    *sd = mdl__calloc((size_t)nx + 1, sizeof(double));
+    *coef = mdl__calloc((size_t)(nx + 1) * q, sizeof(double));
+    double *D = mdl__calloc((size_t)n * (nx ? nx : 1), sizeof(double));
+    double *row = mdl__calloc((size_t)nx + 1, sizeof(double));
+    double *xi = mdl__calloc((size_t)d + 1, sizeof(double));
+    double *bm = mdl__calloc((size_t)nx + 1, sizeof(double)), *bs = mdl__calloc((size_t)nx + 1, sizeof(double));
+    double *bc = mdl__calloc((size_t)(nx + 1) * q, sizeof(double));
+    if (!*zmean || !*zsd || !*cent || !*mean || !*sd || !*coef || !D || !row || !xi || !bm || !bs || !bc) {
+        rc = mdl__err(err, -ENOMEM, "regression: out of memory");
+        goto out;
+    }
+    for (int j = 0; j < d; j++) {
+        double s = 0, v = 0;
+        for (int i = 0; i < n; i++)
+            s += X[(size_t)j * n + i];
+        s /= n;
+        for (int i = 0; i < n; i++)
+            v += (X[(size_t)j * n + i] - s) * (X[(size_t)j * n + i] - s);
+        v = sqrt(v / n);
+        (*zmean)[j] = s;
+        (*zsd)[j] = v > 1e-9 ? v : 1;
+    }
+    for (int c = 0; c < mm; c++) { /* centres evenly spread over the samples */
+        int i = (int)((long long)c * n / mm);
+        for (int j = 0; j < d; j++)
+            (*cent)[(size_t)c * d + j] = (X[(size_t)j * n + i] - (*zmean)[j]) / (*zsd)[j];
+    }
+    static const double widths[] = {0.5, 1, 2, 4};
+    int nw = mm ? (int)(sizeof widths / sizeof *widths) : 1;
+    double best = INFINITY;
+    for (int w = 0; w < nw; w++) {
+        double width_w = mm ? widths[w] * sqrt((double)d) : 1;
+        for (int i = 0; i < n; i++) {
+            for (int j = 0; j < d; j++)
+                xi[j] = X[(size_t)j * n + i];
+            mdl__design_row(xi, d, *zmean, *zsd, *cent, mm, width_w, row);
+            for (int j = 0; j < nx; j++)
+                D[(size_t)j * n + i] = row[j];
+        }
+        double ch, rt, rl;
+        char e2[MDL_ERR_LEN];
+        int r = mdl__ridge_fit(D, n, nx, Y, q, ridge, colw, *mean, *sd, *coef, &ch, &rt, &rl, e2);
+        if (r) {
+            if (!mm) {
+                rc = mdl__err(err, r, "%s", e2);
+                goto out;
+            }
+            continue;
+        }
+        if (rl < best) {
+            best = rl;
+            *width = width_w;
+            *chosen = ch;
+            *rms_train = rt;
+            *rms_loo = rl;
+            memcpy(bm, *mean, sizeof(double) * (size_t)nx);
+            memcpy(bs, *sd, sizeof(double) * (size_t)nx);
+            memcpy(bc, *coef, sizeof(double) * (size_t)(nx + 1) * q);
+        }
+    }
+    if (!isfinite(best)) {
+        rc = mdl__err(err, MDL_ENUMERIC, "regression: no kernel width gave a solvable system");
+        goto out;
+    }
+    memcpy(*mean, bm, sizeof(double) * (size_t)nx);
+    memcpy(*sd, bs, sizeof(double) * (size_t)nx);
+    memcpy(*coef, bc, sizeof(double) * (size_t)(nx + 1) * q);
+    *m = mm;
+out:
+    free(D);
+    free(row);
+    free(xi);
+    free(bm);
+    free(bs);
+    free(bc);
+    return rc;
 }

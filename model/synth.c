@@ -6,7 +6,10 @@
  *   3. alternating least squares (Sec. 5, after [XZY*07, BBW*11]):
  *        a. greedy rigid alignment (Sec. 5.1): instances in the precomputed order, each aligned
  *           by its overlap with what is already placed (absolute orientation, rigid.h), with the
- *           predicted rotation as a prior; an instance without overlap keeps its prediction;
+ *           predicted rotation as a prior; an instance without overlap keeps its prediction.
+ *           Ours: when the markers live in the mesh's space (virtual markers, same subject) the
+ *           rig vertices are further alignment targets, and `relax` sweeps re-align every
+ *           instance against all its neighbours so that those targets reach along the chains;
  *        b. shape optimisation (Sec. 5.2, eq. 7): per instance
  *             min_lambda sum_{i in O} ||x_i - x_hat_i(lambda)||^2 + beta sum_k (lambda_k - lambda+_k)^2 / sigma_k^2
  *           where x_i are the other instances' positions of the overlap vertices O, taken into the
@@ -39,7 +42,7 @@ struct mdl_synth {
     uint8_t *seen;             /* nmarkers: ever valid */
     int have_prev, have_body;
     double Rb[9], ob[3];
-    double *feat, *z, *out;    /* scratch: max features, max features + 1, max outputs */
+    double *feat, *row, *z, *out; /* scratch: features, design row, design row + 1, outputs */
     double *iq, *iR, *it;      /* per instance: predicted quaternion, rotation, translation */
     double *lam, *lamp;        /* per instance modes (offset inst_lam) */
     int *inst_lam;             /* ninst + 1 */
@@ -49,6 +52,10 @@ struct mdl_synth {
     int *cnt;                  /* nv */
     double *ybuf, *xbuf;       /* overlap scratch, 3 x max part size */
     double *rhs;               /* max modes */
+    double *wbuf;              /* weights of alignment targets, max part size + markers */
+    double *mb;                /* nmarkers x 3: markers in the body frame */
+    uint8_t *mvalid;           /* nmarkers: valid in this frame (not held) */
+    int *imk_off, *imk_local, *imk_marker; /* markers on each instance: local vertex, marker */
 };
 
 void mdl_synth_destroy(mdl_synth *s)
@@ -60,6 +67,7 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->Plast);
     free(s->seen);
     free(s->feat);
+    free(s->row);
     free(s->z);
     free(s->out);
     free(s->iq);
@@ -75,6 +83,12 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->ybuf);
     free(s->xbuf);
     free(s->rhs);
+    free(s->wbuf);
+    free(s->mb);
+    free(s->mvalid);
+    free(s->imk_off);
+    free(s->imk_local);
+    free(s->imk_marker);
     free(s);
 }
 
@@ -85,10 +99,12 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     if (!s)
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     s->m = m;
-    int nm = m->nmarkers, NI = m->ninst, maxd = 1, maxo = 1, maxk = 1, maxn = 1;
+    int nm = m->nmarkers, NI = m->ninst, maxd = 1, maxo = 1, maxk = 1, maxn = 1, maxx = 1;
     for (int l = 0; l < m->nlimbs; l++) {
         if (m->reg[l].nin > maxd)
             maxd = m->reg[l].nin;
+        if (m->reg[l].nin + m->reg[l].ncent > maxx)
+            maxx = m->reg[l].nin + m->reg[l].ncent;
         if (m->reg[l].nout > maxo)
             maxo = m->reg[l].nout;
     }
@@ -103,7 +119,8 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->Plast = mdl__calloc((size_t)nm * 3, sizeof(float));
     s->seen = mdl__calloc((size_t)nm, 1);
     s->feat = mdl__calloc((size_t)maxd, sizeof(double));
-    s->z = mdl__calloc((size_t)maxd + 1, sizeof(double));
+    s->row = mdl__calloc((size_t)maxx, sizeof(double));
+    s->z = mdl__calloc((size_t)maxx + 1, sizeof(double));
     s->out = mdl__calloc((size_t)maxo, sizeof(double));
     s->iq = mdl__calloc((size_t)NI * 4, sizeof(double));
     s->iR = mdl__calloc((size_t)NI * 9, sizeof(double));
@@ -121,12 +138,33 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->pos = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
     s->acc = mdl__calloc((size_t)m->nv * 3, sizeof(double));
     s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
-    s->ybuf = mdl__calloc((size_t)maxn * 3, sizeof(double));
-    s->xbuf = mdl__calloc((size_t)maxn * 3, sizeof(double));
+    s->ybuf = mdl__calloc(((size_t)maxn + nm) * 3, sizeof(double));
+    s->xbuf = mdl__calloc(((size_t)maxn + nm) * 3, sizeof(double));
+    s->wbuf = mdl__calloc((size_t)maxn + nm, sizeof(double));
+    s->mb = mdl__calloc((size_t)nm * 3, sizeof(double));
+    s->mvalid = mdl__calloc((size_t)nm, 1);
+    s->imk_off = mdl__calloc((size_t)NI + 1, sizeof(int));
+    s->imk_local = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
+    s->imk_marker = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
+    if (s->imk_off && s->imk_local && s->imk_marker) {
+        int e = 0;
+        for (int i = 0; i < NI; i++) {
+            int p = m->inst_part[i];
+            for (int mk = 0; mk < nm; mk++)
+                for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
+                    if (m->pv_idx[j] == m->markers[mk].vertex) {
+                        s->imk_local[e] = j - m->pv_off[p];
+                        s->imk_marker[e++] = mk;
+                        break;
+                    }
+            s->imk_off[i + 1] = e;
+        }
+    }
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
-    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->z || !s->out || !s->iq ||
+    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq ||
         !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->pos ||
-        !s->acc || !s->cnt || !s->ybuf || !s->xbuf || !s->rhs) {
+        !s->acc || !s->cnt || !s->ybuf || !s->xbuf || !s->rhs || !s->wbuf || !s->mb ||
+        !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker) {
         mdl_synth_destroy(s);
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     }
@@ -160,8 +198,9 @@ static void inst_local_shape(const mdl_synth *s, int i, int j, double y[3])
     }
 }
 
-/* Writes all of instance i's vertices (body frame) into pos, and adds them to acc/cnt. */
-static void inst_emit(mdl_synth *s, int i, int accumulate)
+/* Writes all of instance i's vertices (body frame) into pos. mode 1 adds them to acc/cnt, mode 2
+ * replaces the instance's previous contribution there. */
+static void inst_emit(mdl_synth *s, int i, int mode)
 {
     const struct mdl_model *m = s->m;
     int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
@@ -173,72 +212,116 @@ static void inst_emit(mdl_synth *s, int i, int accumulate)
         inst_local_shape(s, i, j, y);
         for (int r = 0; r < 3; r++) {
             double x = R[3 * r] * y[0] + R[3 * r + 1] * y[1] + R[3 * r + 2] * y[2] + t[r];
+            if (mode == 2)
+                s->acc[3 * (size_t)idx[j] + r] -= out[3 * j + r];
             out[3 * j + r] = (float)x;
-            if (accumulate)
-                s->acc[3 * (size_t)idx[j] + r] += x;
+            if (mode)
+                s->acc[3 * (size_t)idx[j] + r] += out[3 * j + r];
         }
-        if (accumulate)
+        if (mode == 1)
             s->cnt[idx[j]]++;
     }
 }
 
-/* Sec. 5.1: greedy rigid alignment with the predicted rotations as a prior. */
+/* Weighted absolute orientation of instance i onto targets, with its predicted rotation as a prior
+ * (rigid.h): the n local vertices `ov` go to the mean position the other instances give them (all
+ * placed instances when `self_in_acc` is 0; all but i itself when 1), and the instance's markers
+ * (when the model uses them) to the markers' positions. Without any target the prediction stays. */
+static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_in_acc)
+{
+    const struct mdl_model *m = s->m;
+    int p = m->inst_part[i];
+    const int *idx = m->pv_idx + m->pv_off[p];
+    const float *own = s->pos + 3 * (size_t)s->inst_pos[i];
+    int k = 0;
+    double wsum = 0;
+    for (int o = 0; o < n; o++) {
+        int j = ov[o], v = idx[j], c = s->cnt[v] - self_in_acc;
+        if (c < 1)
+            continue;
+        inst_local_shape(s, i, j, s->ybuf + 3 * k);
+        for (int r = 0; r < 3; r++)
+            s->xbuf[3 * k + r] =
+                (s->acc[3 * (size_t)v + r] - (self_in_acc ? own[3 * j + r] : 0)) / c;
+        s->wbuf[k++] = 1;
+        wsum += 1;
+    }
+    int nmk = 0;
+    for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++)
+        nmk += s->mvalid[s->imk_marker[e]];
+    if (m->marker_weight > 0 && nmk > 0) {
+        double w = m->marker_weight * (wsum > 10 ? wsum : 10) / nmk;
+        for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++) {
+            int mk = s->imk_marker[e];
+            if (!s->mvalid[mk])
+                continue;
+            inst_local_shape(s, i, s->imk_local[e], s->ybuf + 3 * k);
+            for (int r = 0; r < 3; r++)
+                s->xbuf[3 * k + r] = s->mb[3 * mk + r];
+            s->wbuf[k++] = w;
+            wsum += w;
+        }
+    }
+    double Rp[9];
+    mdl__quat_to_mat(s->iq + 4 * i, Rp);
+    double *R = s->iR + 9 * i, *t = s->it + 3 * i;
+    if (k == 0) {
+        memcpy(R, Rp, sizeof Rp);
+        return;
+    }
+    double cy[3] = {0}, cx[3] = {0};
+    for (int o = 0; o < k; o++)
+        for (int r = 0; r < 3; r++) {
+            cy[r] += s->wbuf[o] * s->ybuf[3 * o + r];
+            cx[r] += s->wbuf[o] * s->xbuf[3 * o + r];
+        }
+    for (int r = 0; r < 3; r++) {
+        cy[r] /= wsum;
+        cx[r] /= wsum;
+    }
+    double S[9] = {0}, spread = 0;
+    for (int o = 0; o < k; o++) {
+        double yy[3], xx[3], w = s->wbuf[o];
+        for (int r = 0; r < 3; r++) {
+            yy[r] = s->ybuf[3 * o + r] - cy[r];
+            xx[r] = s->xbuf[3 * o + r] - cx[r];
+            spread += w * yy[r] * yy[r];
+        }
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++)
+                S[3 * r + c] += w * yy[r] * xx[c];
+    }
+    /* prior: + mu * Rp^T; with (nearly) collinear targets it decides the free rotation */
+    double mu = m->prior_weight * spread + 1e-12;
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            S[3 * r + c] += mu * Rp[3 * c + r];
+    double q[4];
+    mdl__rot_from_cov(S, q, R);
+    for (int r = 0; r < 3; r++)
+        t[r] = cx[r] - (R[3 * r] * cy[0] + R[3 * r + 1] * cy[1] + R[3 * r + 2] * cy[2]);
+}
+
+/* Sec. 5.1: greedy rigid alignment in the precomputed order, then `relax` sweeps in which every
+ * instance is aligned again to all its neighbours (a block coordinate descent on the same
+ * objective, which carries marker targets along the limb chains). */
 static void align_all(mdl_synth *s)
 {
     const struct mdl_model *m = s->m;
     memset(s->acc, 0, sizeof(double) * 3 * (size_t)m->nv);
     memset(s->cnt, 0, sizeof(int) * (size_t)m->nv);
     for (int step = 0; step < m->ninst; step++) {
-        int i = m->order[step], p = m->inst_part[i];
-        const int *idx = m->pv_idx + m->pv_off[p];
-        int a = m->order_ov_off[step], b = m->order_ov_off[step + 1], n = b - a;
-        double Rp[9];
-        mdl__quat_to_mat(s->iq + 4 * i, Rp);
-        if (n >= 3) {
-            for (int o = 0; o < n; o++) {
-                int j = m->order_ov[a + o], v = idx[j];
-                inst_local_shape(s, i, j, s->ybuf + 3 * o);
-                for (int r = 0; r < 3; r++)
-                    s->xbuf[3 * o + r] = s->acc[3 * (size_t)v + r] / s->cnt[v];
-            }
-            double cy[3] = {0}, cx[3] = {0};
-            for (int o = 0; o < n; o++)
-                for (int r = 0; r < 3; r++) {
-                    cy[r] += s->ybuf[3 * o + r];
-                    cx[r] += s->xbuf[3 * o + r];
-                }
-            for (int r = 0; r < 3; r++) {
-                cy[r] /= n;
-                cx[r] /= n;
-            }
-            double S[9] = {0}, spread = 0;
-            for (int o = 0; o < n; o++) {
-                double yy[3], xx[3];
-                for (int r = 0; r < 3; r++) {
-                    yy[r] = s->ybuf[3 * o + r] - cy[r];
-                    xx[r] = s->xbuf[3 * o + r] - cx[r];
-                    spread += yy[r] * yy[r];
-                }
-                for (int r = 0; r < 3; r++)
-                    for (int c = 0; c < 3; c++)
-                        S[3 * r + c] += yy[r] * xx[c];
-            }
-            /* prior: + mu * Rp^T (rigid.h) */
-            double mu = m->prior_weight * spread;
-            for (int r = 0; r < 3; r++)
-                for (int c = 0; c < 3; c++)
-                    S[3 * r + c] += mu * Rp[3 * c + r];
-            double q[4];
-            double *R = s->iR + 9 * i, *t = s->it + 3 * i;
-            mdl__rot_from_cov(S, q, R);
-            for (int r = 0; r < 3; r++)
-                t[r] = cx[r] - (R[3 * r] * cy[0] + R[3 * r + 1] * cy[1] + R[3 * r + 2] * cy[2]);
-        } else {
-            memcpy(s->iR + 9 * i, Rp, sizeof Rp);
-            /* translation stays as predicted (set in mdl_synth_frame) */
-        }
+        int i = m->order[step];
+        align_instance(s, i, m->order_ov + m->order_ov_off[step],
+                       m->order_ov_off[step + 1] - m->order_ov_off[step], 0);
         inst_emit(s, i, 1);
     }
+    for (int sweep = 0; sweep < m->relax; sweep++)
+        for (int step = 0; step < m->ninst; step++) {
+            int i = m->order[step];
+            align_instance(s, i, m->sov + m->sov_off[i], m->sov_off[i + 1] - m->sov_off[i], 1);
+            inst_emit(s, i, 2);
+        }
 }
 
 /* Sec. 5.2, eq. (7), for every instance with modes. */
@@ -292,6 +375,7 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
     for (int j = 0; j < nm; j++) {
         const float *p = markers + 3 * j;
         int ok = (!valid || valid[j]) && isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
+        s->mvalid[j] = (uint8_t)ok;
         if (ok) {
             memcpy(s->Plast + 3 * j, p, 3 * sizeof(float));
             s->seen[j] = 1;
@@ -316,6 +400,12 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
         if (!s->have_body)
             return -EAGAIN;
     }
+    for (int j = 0; j < nm; j++) { /* markers in the body frame: alignment targets */
+        const float *p = s->P + 3 * j;
+        double d[3] = {p[0] - s->ob[0], p[1] - s->ob[1], p[2] - s->ob[2]};
+        for (int c = 0; c < 3; c++)
+            s->mb[3 * j + c] = s->Rb[c] * d[0] + s->Rb[3 + c] * d[1] + s->Rb[6 + c] * d[2];
+    }
     /* 1-2. parameters and predictions per limb */
     for (int l = 0; l < m->nlimbs; l++) {
         const mdl_limb_reg *rg = &m->reg[l];
@@ -330,9 +420,11 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
                 s->feat[j] = rg->feat_scale[j] * s->feat[j] + rg->feat_shift[j];
         } else {
             for (int j = 0; j < rg->nin; j++)
-                s->feat[j] = rg->in_mean[j];
+                s->feat[j] = rg->zmean[j];
         }
-        mdl__ridge_predict(rg->coef, rg->nin, rg->nout, rg->in_mean, rg->in_sd, s->feat, s->z, s->out);
+        mdl__design_row(s->feat, rg->nin, rg->zmean, rg->zsd, rg->cent, rg->ncent, rg->width, s->row);
+        mdl__ridge_predict(rg->coef, rg->nin + rg->ncent, rg->nout, rg->in_mean, rg->in_sd, s->row,
+                           s->z, s->out);
         for (int i = 0; i < m->ninst; i++) {
             if (m->inst_limb[i] != l)
                 continue;

@@ -49,6 +49,8 @@ void mdl_train_opts_default(mdl_train_opts *o)
     o->beta = 0.5;
     o->iterations = 2;
     o->use_motion_dir = 0;
+    o->marker_weight = -1;
+    o->relax = 3;
     o->name = "model";
 }
 
@@ -141,7 +143,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
     int *mk_map = NULL, *lmap = NULL;
     uint8_t *mark = NULL;
     double *dist = NULL, *bd = NULL, **pmodes = NULL, **psig = NULL;
-    double *Fm = NULL, *Fv = NULL, *Xr = NULL, *Yr = NULL, *targets = NULL;
+    double *Fm = NULL, *Fv = NULL, *Xr = NULL, *Yr = NULL, *targets = NULL, *colw = NULL;
     float *Pm = NULL;
 
     snprintf(m->name, sizeof m->name, "%s", opts->name ? opts->name : "model");
@@ -152,6 +154,8 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
     m->iterations = opts->iterations;
     m->use_motion_dir = opts->use_motion_dir;
     m->prior_weight = 0.05;
+    m->marker_weight = opts->marker_weight >= 0 ? opts->marker_weight : (markers ? 0 : 1);
+    m->relax = opts->relax;
     m->virtual_markers = markers == NULL;
     m->ntrain = T;
     ALLOC(m->train_frames, T);
@@ -581,8 +585,6 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
             rg->nin = d;
             ALLOC(rg->feat_scale, d);
             ALLOC(rg->feat_shift, d);
-            ALLOC(rg->in_mean, d);
-            ALLOC(rg->in_sd, d);
             for (int i = 0; i < T; i++) {
                 mdl__limb_features(Pv + (size_t)i * nm * 3, i > 0 ? Pv + (size_t)(i - 1) * nm * 3 : NULL,
                                    path, plen, Rb + 9 * i, ob + 3 * i, m->use_motion_dir, feat);
@@ -642,9 +644,39 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
                         Yr[(size_t)(m->inst_out[i] + c) * nsamp + s] = tg[c];
                 }
             }
-            ALLOC(rg->coef, (size_t)(d + 1) * q);
-            if ((rc = mdl__ridge_fit(Xr, nsamp, d, Yr, q, opts->ridge, rg->in_mean, rg->in_sd,
-                                     rg->coef, &rg->ridge, &rg->rms_train, &rg->rms_loo, err)))
+            /* what an error in each output costs in vertex space: a quaternion error dq turns the
+             * part by about 2|dq| radians, moving n_p vertices at RMS radius r_p; a translation
+             * error moves n_p vertices; shape coefficients are lengths along unit modes */
+            free(colw);
+            colw = mdl__calloc((size_t)q, sizeof *colw);
+            if (!colw) {
+                rc = mdl__err(err, -ENOMEM, "train: out of memory");
+                goto out;
+            }
+            for (int i = 0; i < NI; i++) {
+                if (m->inst_limb[i] != l)
+                    continue;
+                int p = m->inst_part[i], np = m->pv_off[p + 1] - m->pv_off[p], k = m->pmodes[p];
+                const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
+                double c[3] = {0, 0, 0}, r2 = 0;
+                for (int j = 0; j < np; j++)
+                    for (int x = 0; x < 3; x++)
+                        c[x] += mean[3 * j + x] / np;
+                for (int j = 0; j < np; j++)
+                    for (int x = 0; x < 3; x++)
+                        r2 += (mean[3 * j + x] - c[x]) * (mean[3 * j + x] - c[x]) / np;
+                double *w = colw + m->inst_out[i];
+                for (int x = 0; x < 4; x++)
+                    w[x] = 4 * r2 * np;
+                for (int x = 4; x < 7; x++)
+                    w[x] = np;
+                for (int x = 7; x < 7 + k; x++)
+                    w[x] = 1;
+            }
+            if ((rc = mdl__regression_fit(Xr, nsamp, d, Yr, q, opts->ridge, colw, !opts->linear, &rg->zmean,
+                                          &rg->zsd, &rg->cent, &rg->ncent, &rg->width, &rg->in_mean,
+                                          &rg->in_sd, &rg->coef, &rg->ridge, &rg->rms_train,
+                                          &rg->rms_loo, err)))
                 goto out;
         }
     }
@@ -867,6 +899,7 @@ out:
     free(Fv);
     free(Xr);
     free(Yr);
+    free(colw);
     free(targets);
     free(Pm);
     if (rc) {
