@@ -158,6 +158,7 @@ typedef struct mdl_train_opts {
     double marker_weight;  /* markers as alignment targets at synthesis (synth.c); < 0: automatic,
                               1 with virtual markers (they live in the mesh's space), else 0 */
     int relax;             /* alignment sweeps against all neighbours after the greedy pass */
+    int align_samples;     /* shared vertices per instance used by alignment and eq. 7 (0: all) */
     const char *name;      /* model name, stored in the file */
     mdl_progress_fn progress;
     void *progress_ud;

@@ -797,8 +797,12 @@ int mdl_model_describe(const mdl_model *m, char *buf, size_t len)
     int modes = 0;
     for (int p = 0; p < m->nparts; p++)
         modes += m->pmodes[p];
-    APPEND("parts      %d near-rigid clusters, %d shape modes, %d instances\n", m->nparts, modes,
-           m->ninst);
+    long ivert = 0;
+    for (int i = 0; i < m->ninst; i++)
+        ivert += m->pv_off[m->inst_part[i] + 1] - m->pv_off[m->inst_part[i]];
+    APPEND("parts      %d near-rigid clusters, %d shape modes, %d instances holding %ld vertices "
+           "(%d shared between instances)\n",
+           m->nparts, modes, m->ninst, ivert, m->sov_off[m->ninst]);
     for (int p = 0; p < m->nparts; p++) {
         int core = 0;
         for (int v = 0; v < m->nv; v++)

@@ -13,76 +13,72 @@
 static const double grid[] = {1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 3e-2, 0.1, 0.3, 1, 3, 10, 100};
 
 /* Solves for B (d x q) with (Z^T Z + lam I) B = Z^T Yc; returns train and LOO errors (weighted). */
+/* Solves (Z^T Z + lam n I) B = Z^T Yc and accumulates per-column training and leave-one-out
+ * errors. With many samples (n > d) the hat diagonal h_ii = 1/n + z_i^T G^{-1} z_i is taken from
+ * the primal factor. With few (n <= d) the dual form is used, which stays exact as lam -> 0:
+ * I - H = lam' (Z Z^T + lam' I)^{-1} - 1 1^T / n, so r = lam' M Yc and e_loo_i = r_i / (lam' M_ii
+ * - 1/n) with M = (Z Z^T + lam' I)^{-1}; the scale lam' cancels. K and M are n x n scratch. */
 static int solve_one(const double *Z, int n, int d, const double *Yc, int q, const double *yw,
-                     double lam, double *G, double *B, double *W, double *G2, double *B2,
+                     double lam, double *G, double *B, double *W, double *K, double *M,
                      double *col_train, double *col_loo, char *err)
 {
-    int explicit_loo = n <= 2 * d + 2;
+    double lp = lam * n;
     mdl_la_gemm('T', 'N', d, d, n, 1.0, Z, n, Z, n, 0.0, G, d);
     for (int i = 0; i < d; i++)
-        G[i * d + i] += lam * n;
+        G[i * d + i] += lp;
     int r = mdl_la_potrf(d, G, d, err);
     if (r)
         return r;
     mdl_la_gemm('T', 'N', d, q, n, 1.0, Z, n, Yc, n, 0.0, B, d);
     if ((r = mdl_la_potrs(d, q, G, d, B, d, err)))
         return r;
-    /* W = G^{-1} Z^T (d x n); h_ii = z_i . W_i */
+    for (int c = 0; c < q; c++)
+        col_loo[c] = col_train[c] = 0;
+    if (n <= d) {
+        mdl_la_gemm('N', 'T', n, n, d, 1.0, Z, n, Z, n, 0.0, K, n);
+        for (int i = 0; i < n; i++)
+            K[i * n + i] += lp;
+        if ((r = mdl_la_potrf(n, K, n, err)))
+            return r;
+        for (int i = 0; i < n * n; i++)
+            M[i] = 0;
+        for (int i = 0; i < n; i++)
+            M[i * n + i] = 1;
+        if ((r = mdl_la_potrs(n, n, K, n, M, n, err)))
+            return r;
+        for (int i = 0; i < n; i++) {
+            double a = lp * M[i * n + i] - 1.0 / n;
+            if (a < 1e-12)
+                a = 1e-12;
+            for (int c = 0; c < q; c++) {
+                double res = 0;
+                for (int j = 0; j < n; j++)
+                    res += M[j * n + i] * Yc[c * n + j];
+                res *= lp;
+                col_train[c] += yw[c] * res * res;
+                col_loo[c] += yw[c] * (res / a) * (res / a);
+            }
+        }
+        return 0;
+    }
+    /* W = G^{-1} Z^T (d x n); h_ii = 1/n + z_i . W_i */
     for (int i = 0; i < n; i++)
         for (int j = 0; j < d; j++)
             W[i * d + j] = Z[j * n + i];
     if ((r = mdl_la_potrs(d, n, G, d, W, d, err)))
         return r;
-    for (int c = 0; c < q; c++)
-        col_loo[c] = col_train[c] = 0;
     for (int i = 0; i < n; i++) {
-        double h = 1.0 / n; /* the intercept's share of the hat matrix */
+        double h = 1.0 / n;
         for (int j = 0; j < d; j++)
             h += Z[j * n + i] * W[i * d + j];
+        double denom = 1 - h > 1e-6 ? 1 - h : 1e-6;
         for (int c = 0; c < q; c++) {
             double pred = 0;
             for (int j = 0; j < d; j++)
                 pred += Z[j * n + i] * B[c * d + j];
             double res = Yc[c * n + i] - pred;
             col_train[c] += yw[c] * res * res;
-            if (!explicit_loo) {
-                double denom = 1 - h > 1e-6 ? 1 - h : 1e-6;
-                col_loo[c] += yw[c] * (res / denom) * (res / denom);
-            }
-        }
-    }
-    if (explicit_loo) {
-        /* few samples for many columns: the hat-matrix shortcut degenerates (h_ii -> 1), so
-         * refit without each sample in turn; G2/B2 are scratch of the same sizes as G/B */
-        /* Z and Yc are centred over all n samples; without sample i the means become
-         * zb = -z_i / (n - 1) and yb = -y_i / (n - 1), and the unpenalised intercept must be
-         * re-estimated from the others, or it leaks y_i back into the fit. */
-        double *zb = W; /* W is free here: d scratch */
-        for (int i = 0; i < n; i++) {
-            mdl_la_gemm('T', 'N', d, d, n, 1.0, Z, n, Z, n, 0.0, G2, d);
-            mdl_la_gemm('T', 'N', d, q, n, 1.0, Z, n, Yc, n, 0.0, B2, d);
-            for (int a = 0; a < d; a++)
-                zb[a] = -Z[a * n + i] / (n - 1);
-            for (int a = 0; a < d; a++) {
-                for (int b = 0; b < d; b++)
-                    G2[b * d + a] -= Z[a * n + i] * Z[b * n + i] + (n - 1) * zb[a] * zb[b];
-                for (int c = 0; c < q; c++)
-                    B2[c * d + a] -= Z[a * n + i] * Yc[c * n + i] +
-                                     (n - 1) * zb[a] * (-Yc[c * n + i] / (n - 1));
-                G2[a * d + a] += lam * (n - 1);
-            }
-            int r = mdl_la_potrf(d, G2, d, err);
-            if (!r)
-                r = mdl_la_potrs(d, q, G2, d, B2, d, err);
-            if (r)
-                return r;
-            for (int c = 0; c < q; c++) {
-                double pred = -Yc[c * n + i] / (n - 1);
-                for (int j = 0; j < d; j++)
-                    pred += (Z[j * n + i] - zb[j]) * B2[c * d + j];
-                double res = Yc[c * n + i] - pred;
-                col_loo[c] += yw[c] * res * res;
-            }
+            col_loo[c] += yw[c] * (res / denom) * (res / denom);
         }
     }
     return 0;
@@ -103,8 +99,8 @@ int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double
     double *B = mdl__calloc((size_t)dd * q, sizeof *B);
     double *Bbest = mdl__calloc((size_t)dd * q, sizeof *Bbest);
     double *W = mdl__calloc((size_t)dd * n, sizeof *W);
-    double *G2 = mdl__calloc((size_t)dd * dd, sizeof *G2);
-    double *B2 = mdl__calloc((size_t)dd * q, sizeof *B2);
+    double *G2 = n <= d ? mdl__calloc((size_t)n * n, sizeof *G2) : mdl__calloc(1, sizeof *G2);
+    double *B2 = n <= d ? mdl__calloc((size_t)n * n, sizeof *B2) : mdl__calloc(1, sizeof *B2);
     int rc = 0;
     if (!Z || !Yc || !ymean || !yw || !G || !B || !Bbest || !W || !G2 || !B2) {
         rc = mdl__err(err, -ENOMEM, "regression: out of memory");

@@ -5,9 +5,9 @@
  * Inputs are standardised (z = (x - mean) / sd) so that one ridge value fits features of any
  * unit; the intercept is not penalised (targets are centred). With ridge < 0 the value is chosen
  * for every output column separately from a grid by leave-one-out error, computed in closed form
- * from the hat matrix
- * (e_loo_i = r_i / (1 - h_ii)), or by refitting without each sample when there are few samples
- * for many inputs (then h_ii -> 1). Reported residuals weight the columns by colw (what an error in
+ * from the hat matrix, e_loo_i = r_i / (1 - h_ii) with the intercept's 1/n in h_ii; with fewer
+ * samples than inputs the dual form (regress.c), where the primal one degenerates as h_ii -> 1.
+ * Reported residuals weight the columns by colw (what an error in
  * that column costs in vertex space; NULL: the inverse variance) relative to the columns' variance.
  *
  * paper -> code: M_mocap -> X (n x d, column-major, ld n); P_vskel and S_shape -> Y (n x q);

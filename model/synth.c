@@ -48,6 +48,8 @@ struct mdl_synth {
     int *inst_lam;             /* ninst + 1 */
     int *inst_pos;             /* ninst + 1: offsets (in vertices) into pos */
     float *pos;                /* positions of every instance's vertices, body frame */
+    float *loc;                /* local shapes (eq. 6) of every instance's vertices */
+    float *flam;               /* max modes, float copy of lambda for sgemv */
     double *acc;               /* nv x 3 */
     int *cnt;                  /* nv */
     double *ybuf, *xbuf;       /* overlap scratch, 3 x max part size */
@@ -78,6 +80,8 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->inst_lam);
     free(s->inst_pos);
     free(s->pos);
+    free(s->loc);
+    free(s->flam);
     free(s->acc);
     free(s->cnt);
     free(s->ybuf);
@@ -136,6 +140,8 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->lam = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
     s->lamp = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
     s->pos = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
+    s->loc = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
+    s->flam = mdl__calloc((size_t)maxk, sizeof(float));
     s->acc = mdl__calloc((size_t)m->nv * 3, sizeof(double));
     s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
     s->ybuf = mdl__calloc(((size_t)maxn + nm) * 3, sizeof(double));
@@ -162,7 +168,7 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     }
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
     if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq ||
-        !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->pos ||
+        !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->pos || !s->loc || !s->flam ||
         !s->acc || !s->cnt || !s->ybuf || !s->xbuf || !s->rhs || !s->wbuf || !s->mb ||
         !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker) {
         mdl_synth_destroy(s);
@@ -179,47 +185,60 @@ void mdl_synth_reset(mdl_synth *s)
     s->have_body = 0;
 }
 
-/* Positions of local vertex j of instance i: R (mean + V lambda) + t. */
-static void inst_local_shape(const mdl_synth *s, int i, int j, double y[3])
+/* The local shape of instance i (eq. 6): loc = mean + V lambda, for all its vertices. */
+static void update_local(mdl_synth *s, int i)
 {
     const struct mdl_model *m = s->m;
-    int p = m->inst_part[i], k = m->pmodes[p], n = m->pv_off[p + 1] - m->pv_off[p];
-    const float *mean = m->part_mean + 3 * ((size_t)m->pv_off[p] + j);
-    const float *V = m->part_modes + m->pm_off[p] + 3 * (size_t)j;
-    const double *lam = s->lam + s->inst_lam[i];
-    y[0] = mean[0];
-    y[1] = mean[1];
-    y[2] = mean[2];
-    for (int a = 0; a < k; a++) {
-        const float *va = V + (size_t)a * 3 * n;
-        y[0] += lam[a] * va[0];
-        y[1] += lam[a] * va[1];
-        y[2] += lam[a] * va[2];
-    }
+    int p = m->inst_part[i], k = m->pmodes[p], n3 = 3 * (m->pv_off[p + 1] - m->pv_off[p]);
+    float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
+    memcpy(loc, m->part_mean + 3 * (size_t)m->pv_off[p], sizeof(float) * (size_t)n3);
+    if (k == 0)
+        return;
+    float *lam = s->flam;
+    for (int a = 0; a < k; a++)
+        lam[a] = (float)s->lam[s->inst_lam[i] + a];
+    mdl_la_sgemv('N', n3, k, 1.0f, m->part_modes + m->pm_off[p], n3, lam, 1.0f, loc);
 }
 
-/* Writes all of instance i's vertices (body frame) into pos. mode 1 adds them to acc/cnt, mode 2
- * replaces the instance's previous contribution there. */
-static void inst_emit(mdl_synth *s, int i, int mode)
+/* Places instance i's vertices R loc + t into pos: only those shared with other instances (all
+ * that the alignment and shape steps read) unless `all`. mode 1 adds them to acc/cnt, mode 2
+ * replaces the instance's previous contribution there, mode 0 leaves acc alone. */
+static void inst_emit(mdl_synth *s, int i, int mode, int all)
 {
     const struct mdl_model *m = s->m;
     int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
     const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
+    float Rf[9], tf[3];
+    for (int r = 0; r < 9; r++)
+        Rf[r] = (float)R[r];
+    for (int r = 0; r < 3; r++)
+        tf[r] = (float)t[r];
     float *out = s->pos + 3 * (size_t)s->inst_pos[i];
+    const float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
     const int *idx = m->pv_idx + m->pv_off[p];
-    for (int j = 0; j < n; j++) {
-        double y[3];
-        inst_local_shape(s, i, j, y);
-        for (int r = 0; r < 3; r++) {
-            double x = R[3 * r] * y[0] + R[3 * r + 1] * y[1] + R[3 * r + 2] * y[2] + t[r];
-            if (mode == 2)
-                s->acc[3 * (size_t)idx[j] + r] -= out[3 * j + r];
-            out[3 * j + r] = (float)x;
-            if (mode)
-                s->acc[3 * (size_t)idx[j] + r] += out[3 * j + r];
+    const int *list = m->sov + m->sov_off[i];
+    int cnt = all ? n : m->sov_off[i + 1] - m->sov_off[i];
+    for (int e = 0; e < cnt; e++) {
+        int j = all ? e : list[e];
+        const float *y = loc + 3 * j;
+        float *o = out + 3 * j;
+        if (mode == 2) {
+            double *a = s->acc + 3 * (size_t)idx[j];
+            a[0] -= o[0];
+            a[1] -= o[1];
+            a[2] -= o[2];
         }
-        if (mode == 1)
-            s->cnt[idx[j]]++;
+        o[0] = Rf[0] * y[0] + Rf[1] * y[1] + Rf[2] * y[2] + tf[0];
+        o[1] = Rf[3] * y[0] + Rf[4] * y[1] + Rf[5] * y[2] + tf[1];
+        o[2] = Rf[6] * y[0] + Rf[7] * y[1] + Rf[8] * y[2] + tf[2];
+        if (mode) {
+            double *a = s->acc + 3 * (size_t)idx[j];
+            a[0] += o[0];
+            a[1] += o[1];
+            a[2] += o[2];
+            if (mode == 1)
+                s->cnt[idx[j]]++;
+        }
     }
 }
 
@@ -239,7 +258,10 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
         int j = ov[o], v = idx[j], c = s->cnt[v] - self_in_acc;
         if (c < 1)
             continue;
-        inst_local_shape(s, i, j, s->ybuf + 3 * k);
+        const float *y = s->loc + 3 * ((size_t)s->inst_pos[i] + j);
+        s->ybuf[3 * k] = y[0];
+        s->ybuf[3 * k + 1] = y[1];
+        s->ybuf[3 * k + 2] = y[2];
         for (int r = 0; r < 3; r++)
             s->xbuf[3 * k + r] =
                 (s->acc[3 * (size_t)v + r] - (self_in_acc ? own[3 * j + r] : 0)) / c;
@@ -255,7 +277,10 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
             int mk = s->imk_marker[e];
             if (!s->mvalid[mk])
                 continue;
-            inst_local_shape(s, i, s->imk_local[e], s->ybuf + 3 * k);
+            const float *y = s->loc + 3 * ((size_t)s->inst_pos[i] + s->imk_local[e]);
+            s->ybuf[3 * k] = y[0];
+            s->ybuf[3 * k + 1] = y[1];
+            s->ybuf[3 * k + 2] = y[2];
             for (int r = 0; r < 3; r++)
                 s->xbuf[3 * k + r] = s->mb[3 * mk + r];
             s->wbuf[k++] = w;
@@ -304,8 +329,9 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
 
 /* Sec. 5.1: greedy rigid alignment in the precomputed order, then `relax` sweeps in which every
  * instance is aligned again to all its neighbours (a block coordinate descent on the same
- * objective, which carries marker targets along the limb chains). */
-static void align_all(mdl_synth *s)
+ * objective, which carries marker targets along the limb chains). The alignments between shape
+ * steps get one sweep; the last one gets the model's full count. */
+static void align_all(mdl_synth *s, int relax)
 {
     const struct mdl_model *m = s->m;
     memset(s->acc, 0, sizeof(double) * 3 * (size_t)m->nv);
@@ -314,13 +340,13 @@ static void align_all(mdl_synth *s)
         int i = m->order[step];
         align_instance(s, i, m->order_ov + m->order_ov_off[step],
                        m->order_ov_off[step + 1] - m->order_ov_off[step], 0);
-        inst_emit(s, i, 1);
+        inst_emit(s, i, 1, 0);
     }
-    for (int sweep = 0; sweep < m->relax; sweep++)
+    for (int sweep = 0; sweep < relax; sweep++)
         for (int step = 0; step < m->ninst; step++) {
             int i = m->order[step];
             align_instance(s, i, m->sov + m->sov_off[i], m->sov_off[i + 1] - m->sov_off[i], 1);
-            inst_emit(s, i, 2);
+            inst_emit(s, i, 2, 0);
         }
 }
 
@@ -361,6 +387,8 @@ static void optimise_shapes(mdl_synth *s)
         if (mdl_la_potrs(k, 1, m->chol + m->chol_off[i], k, s->rhs, k, NULL) == 0)
             memcpy(s->lam + s->inst_lam[i], s->rhs, sizeof(double) * (size_t)k);
     }
+    for (int i = 0; i < m->ninst; i++)
+        update_local(s, i);
 }
 
 int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, float *Vout,
@@ -447,11 +475,15 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
     memcpy(s->Pprev, s->P, sizeof(float) * 3 * (size_t)nm);
     s->have_prev = 1;
     /* 3. alternate alignment and shape optimisation */
-    align_all(s);
+    for (int i = 0; i < m->ninst; i++)
+        update_local(s, i);
+    align_all(s, m->iterations > 0 ? 1 : m->relax);
     for (int it = 0; it < m->iterations; it++) {
         optimise_shapes(s);
-        align_all(s);
+        align_all(s, it + 1 < m->iterations ? 1 : m->relax);
     }
+    for (int i = 0; i < m->ninst; i++)
+        inst_emit(s, i, 0, 1);
     /* 4-5. blend (eq. 8) and place in the markers' frame */
     for (int v = 0; v < m->nv; v++) {
         double x[3] = {0, 0, 0};

@@ -47,10 +47,11 @@ void mdl_train_opts_default(mdl_train_opts *o)
     o->max_modes = 6;
     o->ridge = -1;
     o->beta = 0.5;
-    o->iterations = 2;
+    o->iterations = 1;
     o->use_motion_dir = 0;
     o->marker_weight = -1;
-    o->relax = 3;
+    o->relax = 4;
+    o->align_samples = 48;
     o->name = "model";
 }
 
@@ -141,7 +142,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
     int *adj_off = NULL, *adj = NULL, *prev = NULL, *queue = NULL, *inst_of = NULL;
     int *part_limbs = NULL, *nearest = NULL, *vinst_cnt = NULL, *placed = NULL;
     int *mk_map = NULL, *lmap = NULL;
-    uint8_t *mark = NULL;
+    uint8_t *mark = NULL, *gsel = NULL;
     double *dist = NULL, *bd = NULL, **pmodes = NULL, **psig = NULL;
     double *Fm = NULL, *Fv = NULL, *Xr = NULL, *Yr = NULL, *targets = NULL, *colw = NULL;
     float *Pm = NULL;
@@ -688,6 +689,23 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
         for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
             vinst_cnt[m->pv_idx[j]]++;
     }
+    /* 9a'. the alignment sample: the alignment and shape steps read each instance's shared
+     * vertices; an evenly spread subset of at most opts->align_samples of them per instance (and
+     * every other instance's copy of those vertices) constrains them as well at a fraction of the
+     * per-frame cost */
+    ALLOC(gsel, nv);
+    for (int i = 0; i < NI; i++) {
+        int p = m->inst_part[i], ns = 0;
+        for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
+            ns += vinst_cnt[m->pv_idx[j]] > 1;
+        int stride = opts->align_samples > 0 && ns > opts->align_samples
+                         ? (ns + opts->align_samples - 1) / opts->align_samples
+                         : 1;
+        int k = 0;
+        for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
+            if (vinst_cnt[m->pv_idx[j]] > 1 && k++ % stride == 0)
+                gsel[m->pv_idx[j]] = 1;
+    }
     /* 9b. greedy alignment order (Sec. 5.1): largest first, then most overlap with what is placed */
     ALLOC(m->order, NI);
     ALLOC(m->order_ov_off, NI + 1);
@@ -720,7 +738,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
             int p = m->inst_part[best];
             if (step > 0)
                 for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
-                    if (mark[m->pv_idx[j]])
+                    if (mark[m->pv_idx[j]] && gsel[m->pv_idx[j]])
                         m->order_ov[n++] = j - m->pv_off[p];
             for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
                 mark[m->pv_idx[j]] = 1;
@@ -735,7 +753,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
         for (int i = 0; i < NI; i++) {
             int p = m->inst_part[i], k = m->pmodes[p];
             for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
-                n += vinst_cnt[m->pv_idx[j]] > 1;
+                n += vinst_cnt[m->pv_idx[j]] > 1 && gsel[m->pv_idx[j]];
             c += k * k;
         }
         ALLOC(m->sov, n + 1);
@@ -746,7 +764,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
             m->sov_off[i] = n;
             m->chol_off[i] = c;
             for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
-                if (vinst_cnt[m->pv_idx[j]] > 1)
+                if (vinst_cnt[m->pv_idx[j]] > 1 && gsel[m->pv_idx[j]])
                     m->sov[n++] = j - m->pv_off[p];
             double *A = m->chol + c;
             const float *V = m->part_modes + m->pm_off[p];
@@ -885,6 +903,7 @@ out:
     free(mk_map);
     free(lmap);
     free(mark);
+    free(gsel);
     free(dist);
     free(bd);
     if (pmodes)

@@ -31,8 +31,14 @@ static const char usage_text[] =
     "  --max-modes N      shape modes per part at most (default 6)\n"
     "  --ridge F          regression regularisation (default: chosen by leave-one-out)\n"
     "  --beta F           shape prior weight of eq. 7 (default 0.5)\n"
-    "  --iterations N     alternating alignment/shape iterations at synthesis (default 2)\n"
-    "  --motion-dir       include directions of movement in the marker parameters\n" CLI_MARKER_OPTS_HELP;
+    "  --iterations N     alternating alignment/shape iterations at synthesis (default 1)\n"
+    "  --motion-dir       include directions of movement in the marker parameters\n"
+    "  --linear           purely linear regressions (eq. 5) instead of linear + radial basis\n"
+    "  --marker-weight F  markers as alignment targets at synthesis (default: 1 with virtual\n"
+    "                     markers, 0 with a recording of another subject)\n"
+    "  --relax N          alignment sweeps against all neighbours after the greedy pass (default 4)\n"
+    "  --align-samples N  shared vertices per part used by alignment and shape steps (default\n"
+    "                     48; 0 = all)\n" CLI_MARKER_OPTS_HELP;
 
 int cmd_train(int argc, char **argv)
 {
@@ -42,7 +48,8 @@ int cmd_train(int argc, char **argv)
     mdl_train_opts_default(&o);
     mdl_marker_opts mo = {0, MDL_UP_AUTO};
     enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
-           O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP };
+           O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP, O_LINEAR,
+           O_MWEIGHT, O_RELAX, O_SAMPLES };
     static const struct option lo[] = {
         {"mesh", 1, 0, 'm'},          {"rest", 1, 0, O_REST},         {"rig", 1, 0, O_RIG},
         {"markers", 1, 0, O_MARKERS}, {"frames", 1, 0, O_FRAMES},     {"output", 1, 0, 'o'},
@@ -51,6 +58,8 @@ int cmd_train(int argc, char **argv)
         {"explained", 1, 0, O_EXPL},  {"max-modes", 1, 0, O_MODES},   {"ridge", 1, 0, O_RIDGE},
         {"beta", 1, 0, O_BETA},       {"iterations", 1, 0, O_ITER},   {"motion-dir", 0, 0, O_MOTION},
         {"marker-scale", 1, 0, O_MSCALE}, {"marker-up", 1, 0, O_MUP}, {"help", 0, 0, 'h'},
+        {"linear", 0, 0, O_LINEAR},   {"marker-weight", 1, 0, O_MWEIGHT}, {"relax", 1, 0, O_RELAX},
+        {"align-samples", 1, 0, O_SAMPLES},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -74,6 +83,10 @@ int cmd_train(int argc, char **argv)
         case O_BETA: if (cli_parse_double(cmd, "--beta", optarg, &o.beta)) return CLI_EXIT_USAGE; break;
         case O_ITER: if (cli_parse_int(cmd, "--iterations", optarg, &o.iterations)) return CLI_EXIT_USAGE; break;
         case O_MOTION: o.use_motion_dir = 1; break;
+        case O_LINEAR: o.linear = 1; break;
+        case O_MWEIGHT: if (cli_parse_double(cmd, "--marker-weight", optarg, &o.marker_weight)) return CLI_EXIT_USAGE; break;
+        case O_RELAX: if (cli_parse_int(cmd, "--relax", optarg, &o.relax)) return CLI_EXIT_USAGE; break;
+        case O_SAMPLES: if (cli_parse_int(cmd, "--align-samples", optarg, &o.align_samples)) return CLI_EXIT_USAGE; break;
         case O_MSCALE: if (cli_parse_double(cmd, "--marker-scale", optarg, &mo.scale)) return CLI_EXIT_USAGE; break;
         case O_MUP:
             if ((mo.up = cli_parse_up(optarg)) < 0)
@@ -89,7 +102,8 @@ int cmd_train(int argc, char **argv)
         return cli_usage_error(cmd, "--mesh, --rig and -o are required (see --help)");
     if (o.clusters < 0 || o.max_clusters < 1 || o.max_clusters > 1000 || !(o.rigid_tol > 0) ||
         o.overlap_rings < 0 || o.overlap_rings > 10 || !(o.explained > 0 && o.explained <= 1) ||
-        o.max_modes < 0 || o.max_modes > 64 || !(o.beta >= 0) || o.iterations < 0 || o.iterations > 100)
+        o.max_modes < 0 || o.max_modes > 64 || !(o.beta >= 0) || o.iterations < 0 || o.iterations > 100 ||
+        o.relax < 0 || o.relax > 100 || o.align_samples < 0 || !(o.marker_weight >= 0 || o.marker_weight == -1))
         return cli_usage_error(cmd, "an option is out of range (see --help)");
     if (o.ridge != -1 && !(o.ridge >= 0))
         return cli_usage_error(cmd, "--ridge must be >= 0");
