@@ -151,7 +151,9 @@ typedef struct mdl_train_opts {
     double ridge;          /* Tikhonov regularisation of Phi and Psi (eq. 5), on standardised inputs;
                               < 0: chosen by leave-one-out error */
     int linear;            /* 1: the purely linear regression of eq. 5; 0: with radial basis
-                              features (regress.h) */
+                              features (regress.h); -1: automatic, radial basis with virtual
+                              markers (interpolating the example's own poses), linear with a
+                              recording of another performer (smooth where the relation is loose) */
     double beta;           /* shape prior weight of eq. 7 */
     int iterations;        /* alternating rigid/shape iterations at synthesis (Sec. 5) */
     int use_motion_dir;    /* include directions of movement d_m (Table 1) in the features */

@@ -68,6 +68,16 @@ struct mdl_model {
     double marker_weight;   /* weight of a marker as an alignment target, relative to the overlap
                                points of the same instance (0: markers only drive the regressions) */
     int relax;              /* extra alignment sweeps against all neighbours (synth.c) */
+    /* placement of the result (synth.c): 0 = in the markers' body frame (markers in the mesh's
+     * space); 1 = ground-locked, for a performer of another build: the mesh keeps the body frame
+     * of its first training frame (place_R, place_o) and follows only the performer's heading about
+     * +Y and horizontal travel, both relative to the recording's first frame (rec_heading,
+     * rec_origin) */
+    int place_mode;
+    int axis_mesh, axis_rec;  /* secondary body-frame axis of the mesh's and the recording's
+                                 reference edge (posefeat.h) */
+    double place_R[9], place_o[3];
+    double rec_heading, rec_origin[3];
 
     /* disjoint parts (clusters) */
     int nparts;

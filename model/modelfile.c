@@ -176,6 +176,13 @@ int mdl_model_save(const mdl_model *m, const char *path, char *err)
     put_f64(&b, m->prior_weight);
     put_f64(&b, m->marker_weight);
     put_u32(&b, (uint32_t)m->relax);
+    put_u32(&b, (uint32_t)m->place_mode);
+    put_u32(&b, (uint32_t)m->axis_mesh);
+    put_u32(&b, (uint32_t)m->axis_rec);
+    put_f64s(&b, m->place_R, 9);
+    put_f64s(&b, m->place_o, 3);
+    put_f64(&b, m->rec_heading);
+    put_f64s(&b, m->rec_origin, 3);
     put_f32s(&b, m->rest, 3 * (size_t)m->nv);
     put_u32s(&b, m->F, 3 * (size_t)m->nf);
     put_i32s(&b, m->train_frames, (size_t)m->ntrain);
@@ -486,6 +493,22 @@ int mdl_model_parse(const uint8_t *buf, size_t len, const char *name, mdl_model 
     m->prior_weight = get_f64(&b, "prior_weight");
     m->marker_weight = get_f64(&b, "marker_weight");
     m->relax = get_int(&b, "relax", 0, 100);
+    m->place_mode = get_int(&b, "placement", 0, 1);
+    m->axis_mesh = get_int(&b, "mesh frame axis", 0, 1);
+    m->axis_rec = get_int(&b, "recording frame axis", 0, 1);
+    {
+        double *pr = get_f64s(&b, 9, "place_R"), *po = get_f64s(&b, 3, "place_o");
+        m->rec_heading = get_f64(&b, "rec_heading");
+        double *ro = get_f64s(&b, 3, "rec_origin");
+        if (pr && po && ro) {
+            memcpy(m->place_R, pr, sizeof m->place_R);
+            memcpy(m->place_o, po, sizeof m->place_o);
+            memcpy(m->rec_origin, ro, sizeof m->rec_origin);
+        }
+        free(pr);
+        free(po);
+        free(ro);
+    }
     if (b.rc)
         goto bad;
     int nv = m->nv;

@@ -15,7 +15,23 @@ static void cross3(const double a[3], const double b[3], double c[3])
     c[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-int mdl__body_frame(const float *P, int nref, const int *ref, double R[9], double o[3])
+int mdl__ref_axis(const float *P, int frames, size_t stride, const int *ref)
+{
+    double sum = 0;
+    int n = 0;
+    for (int f = 0; f < frames; f++) {
+        const float *a = P + f * stride + 3 * ref[0], *b = P + f * stride + 3 * ref[1];
+        double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        double len = norm3(e);
+        if (len > 1e-9) {
+            sum += fabs(e[1]) / len;
+            n++;
+        }
+    }
+    return n > 0 && sum / n > 0.7;
+}
+
+int mdl__body_frame(const float *P, int nref, const int *ref, int axis, double R[9], double o[3])
 {
     const float *a = P + 3 * ref[0], *b = P + 3 * ref[1];
     double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
@@ -34,7 +50,7 @@ int mdl__body_frame(const float *P, int nref, const int *ref, double R[9], doubl
         cross3(e1, side, nrm);
         if (norm3(nrm) > 1e-9)
             cross3(nrm, e1, up);
-    } else if (fabs(e1[1]) > 0.95) {
+    } else if (axis == 1) {
         up[0] = 0;
         up[1] = 0;
         up[2] = 1;
@@ -54,6 +70,14 @@ int mdl__body_frame(const float *P, int nref, const int *ref, double R[9], doubl
         R[3 * r + 2] = e3[r];
     }
     return 0;
+}
+
+double mdl__body_heading(const double R[9])
+{
+    /* columns: e1 = (R[0], R[3], R[6]), e3 = (R[2], R[5], R[8]) */
+    if (fabs(R[3]) < 0.9)
+        return atan2(R[0], R[6]);
+    return atan2(R[2], R[8]) - M_PI / 2;
 }
 
 int mdl__limb_nfeat(int path_len, int use_motion)

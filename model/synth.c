@@ -17,7 +17,8 @@
  *           on the model and is factored at training; per frame this is two triangular solves.
  *      `iterations` shape steps, each followed by a new alignment.
  *   4. blending of shared clusters and overlaps with the precomputed weights of eq. (8) (Sec. 5.3)
- *   5. placement in the markers' body frame (reference edge).
+ *   5. placement in the markers' body frame (reference edge); for a model trained on another
+ *      performer's recording, ground-locked placement (model_internal.h, place_mode).
  *
  * Missing markers: a marker that is invalid in a frame is held at its last valid position
  * (counted in info->markers_held); a marker never seen makes its limbs use the training mean of
@@ -419,7 +420,8 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
     for (int r = 0; r < m->nref; r++)
         refok &= s->seen[m->ref[r]];
     double R[9], o[3];
-    if (refok && mdl__body_frame(s->P, m->nref, m->ref, R, o) == 0) {
+    if (refok && mdl__body_frame(s->P, m->nref, m->ref, m->place_mode ? m->axis_rec : m->axis_mesh,
+                                 R, o) == 0) {
         memcpy(s->Rb, R, sizeof R);
         memcpy(s->ob, o, sizeof o);
         s->have_body = 1;
@@ -485,6 +487,21 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
     for (int i = 0; i < m->ninst; i++)
         inst_emit(s, i, 0, 1);
     /* 4-5. blend (eq. 8) and place in the markers' frame */
+    double PR[9], Po[3];
+    if (m->place_mode == 1) { /* ground-locked: the mesh's own frame, turned and moved like the performer */
+        double th = mdl__body_heading(s->Rb) - m->rec_heading, c = cos(th), sn = sin(th);
+        double Y[9] = {c, 0, sn, 0, 1, 0, -sn, 0, c};
+        for (int r = 0; r < 3; r++)
+            for (int k = 0; k < 3; k++)
+                PR[3 * r + k] = Y[3 * r] * m->place_R[k] + Y[3 * r + 1] * m->place_R[3 + k] +
+                                Y[3 * r + 2] * m->place_R[6 + k];
+        double d[3] = {s->ob[0] - m->rec_origin[0], 0, s->ob[2] - m->rec_origin[2]};
+        for (int r = 0; r < 3; r++)
+            Po[r] = Y[3 * r] * m->place_o[0] + Y[3 * r + 1] * m->place_o[1] + Y[3 * r + 2] * m->place_o[2] + d[r];
+    } else {
+        memcpy(PR, s->Rb, sizeof PR);
+        memcpy(Po, s->ob, sizeof Po);
+    }
     for (int v = 0; v < m->nv; v++) {
         double x[3] = {0, 0, 0};
         for (int b = m->blend_off[v]; b < m->blend_off[v + 1]; b++) {
@@ -495,8 +512,7 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
             x[2] += w * p[2];
         }
         for (int r = 0; r < 3; r++)
-            Vout[3 * v + r] = (float)(s->Rb[3 * r] * x[0] + s->Rb[3 * r + 1] * x[1] +
-                                      s->Rb[3 * r + 2] * x[2] + s->ob[r]);
+            Vout[3 * v + r] = (float)(PR[3 * r] * x[0] + PR[3 * r + 1] * x[1] + PR[3 * r + 2] * x[2] + Po[r]);
     }
     return 0;
 }

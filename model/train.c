@@ -50,6 +50,7 @@ void mdl_train_opts_default(mdl_train_opts *o)
     o->iterations = 1;
     o->use_motion_dir = 0;
     o->marker_weight = -1;
+    o->linear = -1;
     o->relax = 4;
     o->align_samples = 48;
     o->name = "model";
@@ -202,13 +203,19 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
         const float *V = seq->V + (size_t)frames[i] * nv * 3;
         for (int j = 0; j < nm; j++)
             memcpy(Pv + ((size_t)i * nm + j) * 3, V + 3 * rig->markers[j].vertex, 3 * sizeof(float));
-        if (mdl__body_frame(Pv + (size_t)i * nm * 3, m->nref, m->ref, Rb + 9 * i, ob + 3 * i)) {
+    }
+    m->axis_mesh = mdl__ref_axis(Pv, T, (size_t)nm * 3, m->ref);
+    for (int i = 0; i < T; i++) {
+        const float *V = seq->V + (size_t)frames[i] * nv * 3;
+        if (mdl__body_frame(Pv + (size_t)i * nm * 3, m->nref, m->ref, m->axis_mesh, Rb + 9 * i, ob + 3 * i)) {
             rc = mdl__err(err, -EINVAL,
                           "train: the reference markers coincide in training frame %d", frames[i]);
             goto out;
         }
         frame_to_body(V, nv, Rb + 9 * i, ob + 3 * i, X + (size_t)i * nv * 3);
     }
+    memcpy(m->place_R, Rb, sizeof m->place_R);
+    memcpy(m->place_o, ob, sizeof m->place_o);
 
     /* 2. clustering */
     if ((rc = mdl__graph_init(&g, nv, seq->F, seq->nf, err)))
@@ -540,7 +547,12 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
                 goto out;
             }
         }
-        stride = markers->frames > 4000 ? (markers->frames + 3999) / 4000 : 1;
+        m->place_mode = 1;
+        /* samples at most ~25 Hz: consecutive mocap frames are near-duplicates, which would let
+         * leave-one-out choose an over-fitting regulariser; and at most 4000 of them */
+        stride = markers->fps > 37.5 ? (int)lround(markers->fps / 25.0) : 1;
+        if (markers->frames / stride > 4000)
+            stride = (markers->frames + 3999) / 4000;
         FM = (markers->frames + stride - 1) / stride;
         ALLOC(Pm, (size_t)FM * nm * 3);
         ALLOC(lmap, FM);
@@ -564,6 +576,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
                        3 * sizeof(float));
             }
         }
+        m->axis_rec = mdl__ref_axis(Pm, FM, (size_t)nm * 3, m->ref);
     }
     {
         int maxd = 0;
@@ -596,7 +609,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
                 double R[9], o[3];
                 for (int i = 0; i < FM; i++) {
                     const float *Pi = Pm + (size_t)i * nm * 3;
-                    if (mdl__body_frame(Pi, m->nref, m->ref, R, o)) {
+                    if (mdl__body_frame(Pi, m->nref, m->ref, m->axis_rec, R, o)) {
                         rc = mdl__err(err, -EINVAL,
                                       "train: the reference markers coincide in recording frame %d",
                                       i * stride);
@@ -606,6 +619,11 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
                                        m->use_motion_dir, feat);
                     for (int j = 0; j < d; j++)
                         Fm[(size_t)j * FM + i] = feat[j];
+                }
+                if (l == 0) { /* the recording's first body frame: reference for placement */
+                    mdl__body_frame(Pm, m->nref, m->ref, m->axis_rec, R, o);
+                    m->rec_heading = mdl__body_heading(R);
+                    memcpy(m->rec_origin, o, sizeof o);
                 }
                 if ((rc = mdl__adapt_limb(Fm, FM, Fv, T, d, 4, rg->feat_scale, rg->feat_shift, lmap,
                                           err)))
@@ -674,7 +692,8 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
                 for (int x = 7; x < 7 + k; x++)
                     w[x] = 1;
             }
-            if ((rc = mdl__regression_fit(Xr, nsamp, d, Yr, q, opts->ridge, colw, !opts->linear, &rg->zmean,
+            if ((rc = mdl__regression_fit(Xr, nsamp, d, Yr, q, opts->ridge, colw,
+                                          opts->linear < 0 ? markers == NULL : !opts->linear, &rg->zmean,
                                           &rg->zsd, &rg->cent, &rg->ncent, &rg->width, &rg->in_mean,
                                           &rg->in_sd, &rg->coef, &rg->ridge, &rg->rms_train,
                                           &rg->rms_loo, err)))

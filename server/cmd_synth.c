@@ -2,6 +2,7 @@
 #include "cli.h"
 #include "cli_markers.h"
 
+#include <cjson/cJSON.h>
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
@@ -20,18 +21,122 @@ static const char usage_text[] =
     "  --markers FILE     C3D, TRC, BVH or CSV marker recording\n"
     "  -o, --output FILE  the result as a PC2 point cache (opens in Blender)\n"
     "  --obj-dir DIR      also write every frame as DIR/NNNN.obj\n"
-    "  --frames SPEC      which marker frames, a Python slice (default: all)\n" CLI_MARKER_OPTS_HELP;
+    "  --frames SPEC      which marker frames, a Python slice (default: all)\n"
+    "  --json             print statistics as JSON on stdout: timing, missing markers, output and\n"
+    "                     input speed per frame, jitter, bounding box, non-finite values\n" CLI_MARKER_OPTS_HELP;
+
+/* Motion statistics: mean per-frame displacement of the output vertices against that of the
+ * input markers, and jitter = mean |speed(f) - speed(f-1)| / mean speed, for both. */
+static void speeds(const float *P, int stride, const int *sel, int nsel, int frames,
+                   const uint8_t *valid, int vstride, double *sp)
+{
+    for (int f = 1; f < frames; f++) {
+        double sum = 0;
+        int cnt = 0;
+        for (int i = 0; i < nsel; i++) {
+            int k = sel ? sel[i] : i;
+            if (valid && (!valid[(size_t)f * vstride + k] || !valid[(size_t)(f - 1) * vstride + k]))
+                continue;
+            const float *a = P + ((size_t)f * stride + k) * 3, *b = a - (size_t)stride * 3;
+            sum += sqrt((double)(a[0] - b[0]) * (a[0] - b[0]) + (double)(a[1] - b[1]) * (a[1] - b[1]) +
+                        (double)(a[2] - b[2]) * (a[2] - b[2]));
+            cnt++;
+        }
+        sp[f - 1] = cnt ? sum / cnt : 0;
+    }
+}
+
+static double jitter(const double *sp, int n)
+{
+    double ds = 0, s = 0;
+    for (int i = 0; i < n; i++) {
+        s += sp[i];
+        if (i)
+            ds += fabs(sp[i] - sp[i - 1]);
+    }
+    return s > 0 ? (ds / (n > 1 ? n - 1 : 1)) / (s / n) : 0;
+}
+
+static int print_stats(const float *out, int nv, const mdl_markers *mk, const int *idx, int n,
+                       const int *map, int nmap, double med, double p99, long missing, long held,
+                       long lost)
+{
+    /* the input markers of the selected frames, contiguous */
+    float *in = malloc(sizeof(float) * 3 * (size_t)n * nmap);
+    uint8_t *iv = malloc((size_t)n * nmap);
+    double *so = malloc(sizeof(double) * (size_t)(n > 1 ? n : 2));
+    double *si = malloc(sizeof(double) * (size_t)(n > 1 ? n : 2));
+    if (!in || !iv || !so || !si) {
+        free(in);
+        free(iv);
+        free(so);
+        free(si);
+        return -1;
+    }
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < nmap; j++) {
+            size_t k = (size_t)idx[i] * mk->count + map[j];
+            memcpy(in + ((size_t)i * nmap + j) * 3, mk->P + 3 * k, 3 * sizeof(float));
+            iv[(size_t)i * nmap + j] = mk->valid[k];
+        }
+    speeds(out, nv, NULL, nv, n, NULL, 0, so);
+    speeds(in, nmap, NULL, nmap, n, iv, nmap, si);
+    long nonfinite = 0;
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < (size_t)n * nv * 3; i++) {
+        if (!isfinite(out[i])) {
+            nonfinite++;
+            continue;
+        }
+        lo[i % 3] = fminf(lo[i % 3], out[i]);
+        hi[i % 3] = fmaxf(hi[i % 3], out[i]);
+    }
+    int ns = n > 1 ? n - 1 : 0;
+    double jo = jitter(so, ns), ji = jitter(si, ns), om, op, im, ip;
+    cli_percentiles(so, ns, &om, &op);
+    cli_percentiles(si, ns, &im, &ip);
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddNumberToObject(o, "frames", n);
+    cJSON_AddNumberToObject(o, "synth_us_median", med);
+    cJSON_AddNumberToObject(o, "synth_us_p99", p99);
+    cJSON_AddNumberToObject(o, "missing_marker_samples", (double)missing);
+    cJSON_AddNumberToObject(o, "held_marker_samples", (double)held);
+    cJSON_AddNumberToObject(o, "frames_without_reference", (double)lost);
+    cJSON_AddNumberToObject(o, "nonfinite", (double)nonfinite);
+    cJSON_AddNumberToObject(o, "output_speed_median", om);
+    cJSON_AddNumberToObject(o, "output_speed_p99", op);
+    cJSON_AddNumberToObject(o, "input_speed_median", im);
+    cJSON_AddNumberToObject(o, "input_speed_p99", ip);
+    cJSON_AddNumberToObject(o, "output_jitter", jo);
+    cJSON_AddNumberToObject(o, "input_jitter", ji);
+    cJSON *bl = cJSON_AddArrayToObject(o, "bbox_min"), *bh = cJSON_AddArrayToObject(o, "bbox_max");
+    for (int k = 0; k < 3; k++) {
+        cJSON_AddItemToArray(bl, cJSON_CreateNumber(lo[k]));
+        cJSON_AddItemToArray(bh, cJSON_CreateNumber(hi[k]));
+    }
+    char *js = cJSON_Print(o);
+    cJSON_Delete(o);
+    if (js)
+        puts(js);
+    free(js);
+    free(in);
+    free(iv);
+    free(so);
+    free(si);
+    return js ? 0 : -1;
+}
 
 int cmd_synth(int argc, char **argv)
 {
     const char *cmd = "synth", *modelp = NULL, *mk = NULL, *outp = NULL, *objdir = NULL,
                *frames = NULL;
     mdl_marker_opts mo = {0, MDL_UP_AUTO};
-    enum { O_MODEL = 256, O_MARKERS, O_OBJDIR, O_FRAMES, O_MSCALE, O_MUP };
+    enum { O_MODEL = 256, O_MARKERS, O_OBJDIR, O_FRAMES, O_MSCALE, O_MUP, O_JSON };
+    int json = 0;
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},   {"markers", 1, 0, O_MARKERS},     {"output", 1, 0, 'o'},
         {"obj-dir", 1, 0, O_OBJDIR}, {"frames", 1, 0, O_FRAMES},      {"marker-scale", 1, 0, O_MSCALE},
-        {"marker-up", 1, 0, O_MUP}, {"help", 0, 0, 'h'},              {0, 0, 0, 0}};
+        {"marker-up", 1, 0, O_MUP}, {"json", 0, 0, O_JSON}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:h", lo, NULL)) != -1) {
@@ -41,6 +146,7 @@ int cmd_synth(int argc, char **argv)
         case 'o': outp = optarg; break;
         case O_OBJDIR: objdir = optarg; break;
         case O_FRAMES: frames = optarg; break;
+        case O_JSON: json = 1; break;
         case O_MSCALE: if (cli_parse_double(cmd, "--marker-scale", optarg, &mo.scale)) return CLI_EXIT_USAGE; break;
         case O_MUP:
             if ((mo.up = cli_parse_up(optarg)) < 0)
@@ -140,6 +246,11 @@ int cmd_synth(int argc, char **argv)
     }
     double med, p99;
     cli_percentiles(times, n, &med, &p99);
+    if (json && print_stats(out, info.nv, markers, idx, n, map, info.nmarkers, med, p99, missing,
+                            held, lost)) {
+        status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
+        goto out;
+    }
     fprintf(stderr,
             "meshsteer synth: %s: %d frames of %d vertices; %.1f us/frame median, %.1f p99; "
             "%ld missing marker samples (%ld held), %ld frames without reference edge\n",

@@ -33,7 +33,8 @@ static const char usage_text[] =
     "  --beta F           shape prior weight of eq. 7 (default 0.5)\n"
     "  --iterations N     alternating alignment/shape iterations at synthesis (default 1)\n"
     "  --motion-dir       include directions of movement in the marker parameters\n"
-    "  --linear           purely linear regressions (eq. 5) instead of linear + radial basis\n"
+    "  --linear           purely linear regressions (eq. 5; the default with --markers)\n"
+    "  --rbf              linear + radial basis regressions (the default with virtual markers)\n"
     "  --marker-weight F  markers as alignment targets at synthesis (default: 1 with virtual\n"
     "                     markers, 0 with a recording of another subject)\n"
     "  --relax N          alignment sweeps against all neighbours after the greedy pass (default 4)\n"
@@ -49,7 +50,7 @@ int cmd_train(int argc, char **argv)
     mdl_marker_opts mo = {0, MDL_UP_AUTO};
     enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
            O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP, O_LINEAR,
-           O_MWEIGHT, O_RELAX, O_SAMPLES };
+           O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF };
     static const struct option lo[] = {
         {"mesh", 1, 0, 'm'},          {"rest", 1, 0, O_REST},         {"rig", 1, 0, O_RIG},
         {"markers", 1, 0, O_MARKERS}, {"frames", 1, 0, O_FRAMES},     {"output", 1, 0, 'o'},
@@ -59,7 +60,7 @@ int cmd_train(int argc, char **argv)
         {"beta", 1, 0, O_BETA},       {"iterations", 1, 0, O_ITER},   {"motion-dir", 0, 0, O_MOTION},
         {"marker-scale", 1, 0, O_MSCALE}, {"marker-up", 1, 0, O_MUP}, {"help", 0, 0, 'h'},
         {"linear", 0, 0, O_LINEAR},   {"marker-weight", 1, 0, O_MWEIGHT}, {"relax", 1, 0, O_RELAX},
-        {"align-samples", 1, 0, O_SAMPLES},
+        {"align-samples", 1, 0, O_SAMPLES}, {"rbf", 0, 0, O_RBF},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -84,6 +85,7 @@ int cmd_train(int argc, char **argv)
         case O_ITER: if (cli_parse_int(cmd, "--iterations", optarg, &o.iterations)) return CLI_EXIT_USAGE; break;
         case O_MOTION: o.use_motion_dir = 1; break;
         case O_LINEAR: o.linear = 1; break;
+        case O_RBF: o.linear = 0; break;
         case O_MWEIGHT: if (cli_parse_double(cmd, "--marker-weight", optarg, &o.marker_weight)) return CLI_EXIT_USAGE; break;
         case O_RELAX: if (cli_parse_int(cmd, "--relax", optarg, &o.relax)) return CLI_EXIT_USAGE; break;
         case O_SAMPLES: if (cli_parse_int(cmd, "--align-samples", optarg, &o.align_samples)) return CLI_EXIT_USAGE; break;
