@@ -106,6 +106,39 @@ void mdl__rot_from_cov(const double S[9], double q[4], double R[9])
     mdl__quat_to_mat(q, R);
 }
 
+int mdl__rot_refine(const double S[9], double q[4], double R[9])
+{
+    for (int it = 0; it < 24; it++) {
+        mdl__quat_to_mat(q, R);
+        /* columns of R: (R[c], R[3 + c], R[6 + c]); columns of A = S^T: rows of S */
+        double w[3] = {0, 0, 0}, dot = 0;
+        for (int c = 0; c < 3; c++) {
+            double r[3] = {R[c], R[3 + c], R[6 + c]}, a[3] = {S[3 * c], S[3 * c + 1], S[3 * c + 2]};
+            w[0] += r[1] * a[2] - r[2] * a[1];
+            w[1] += r[2] * a[0] - r[0] * a[2];
+            w[2] += r[0] * a[1] - r[1] * a[0];
+            dot += r[0] * a[0] + r[1] * a[1] + r[2] * a[2];
+        }
+        double inv = 1.0 / (fabs(dot) + 1e-300);
+        for (int k = 0; k < 3; k++)
+            w[k] *= inv;
+        double ang = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+        if (ang < 1e-10)
+            return it;
+        double h = 0.5 * ang, sn = sin(h) / ang;
+        double d[4] = {cos(h), w[0] * sn, w[1] * sn, w[2] * sn};
+        double n[4] = {d[0] * q[0] - d[1] * q[1] - d[2] * q[2] - d[3] * q[3],
+                       d[0] * q[1] + d[1] * q[0] + d[2] * q[3] - d[3] * q[2],
+                       d[0] * q[2] - d[1] * q[3] + d[2] * q[0] + d[3] * q[1],
+                       d[0] * q[3] + d[1] * q[2] - d[2] * q[1] + d[3] * q[0]};
+        double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
+        for (int k = 0; k < 4; k++)
+            q[k] = n[k] / nn;
+    }
+    mdl__rot_from_cov(S, q, R);
+    return -1;
+}
+
 double mdl__kabsch(const double *y, const double *x, const double *w, int n, double R[9],
                    double t[3])
 {

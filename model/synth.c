@@ -45,6 +45,7 @@ struct mdl_synth {
     double Rb[9], ob[3];
     double *feat, *row, *z, *out; /* scratch: features, design row, design row + 1, outputs */
     double *iq, *iR, *it;      /* per instance: predicted quaternion, rotation, translation */
+    double *cq;                /* per instance: current rotation as a quaternion (warm start) */
     double *lam, *lamp;        /* per instance modes (offset inst_lam) */
     int *inst_lam;             /* ninst + 1 */
     int *inst_pos;             /* ninst + 1: offsets (in vertices) into pos */
@@ -53,9 +54,7 @@ struct mdl_synth {
     float *flam;               /* max modes, float copy of lambda for sgemv */
     double *acc;               /* nv x 3 */
     int *cnt;                  /* nv */
-    double *ybuf, *xbuf;       /* overlap scratch, 3 x max part size */
     double *rhs;               /* max modes */
-    double *wbuf;              /* weights of alignment targets, max part size + markers */
     double *mb;                /* nmarkers x 3: markers in the body frame */
     uint8_t *mvalid;           /* nmarkers: valid in this frame (not held) */
     int *imk_off, *imk_local, *imk_marker; /* markers on each instance: local vertex, marker */
@@ -74,6 +73,7 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->z);
     free(s->out);
     free(s->iq);
+    free(s->cq);
     free(s->iR);
     free(s->it);
     free(s->lam);
@@ -85,10 +85,7 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->flam);
     free(s->acc);
     free(s->cnt);
-    free(s->ybuf);
-    free(s->xbuf);
     free(s->rhs);
-    free(s->wbuf);
     free(s->mb);
     free(s->mvalid);
     free(s->imk_off);
@@ -128,6 +125,7 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->z = mdl__calloc((size_t)maxx + 1, sizeof(double));
     s->out = mdl__calloc((size_t)maxo, sizeof(double));
     s->iq = mdl__calloc((size_t)NI * 4, sizeof(double));
+    s->cq = mdl__calloc((size_t)NI * 4, sizeof(double));
     s->iR = mdl__calloc((size_t)NI * 9, sizeof(double));
     s->it = mdl__calloc((size_t)NI * 3, sizeof(double));
     s->inst_lam = mdl__calloc((size_t)NI + 1, sizeof(int));
@@ -145,9 +143,6 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->flam = mdl__calloc((size_t)maxk, sizeof(float));
     s->acc = mdl__calloc((size_t)m->nv * 3, sizeof(double));
     s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
-    s->ybuf = mdl__calloc(((size_t)maxn + nm) * 3, sizeof(double));
-    s->xbuf = mdl__calloc(((size_t)maxn + nm) * 3, sizeof(double));
-    s->wbuf = mdl__calloc((size_t)maxn + nm, sizeof(double));
     s->mb = mdl__calloc((size_t)nm * 3, sizeof(double));
     s->mvalid = mdl__calloc((size_t)nm, 1);
     s->imk_off = mdl__calloc((size_t)NI + 1, sizeof(int));
@@ -168,9 +163,9 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
         }
     }
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
-    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq ||
+    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq || !s->cq ||
         !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->pos || !s->loc || !s->flam ||
-        !s->acc || !s->cnt || !s->ybuf || !s->xbuf || !s->rhs || !s->wbuf || !s->mb ||
+        !s->acc || !s->cnt || !s->rhs || !s->mb ||
         !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker) {
         mdl_synth_destroy(s);
         return mdl__err(err, -ENOMEM, "synth: out of memory");
@@ -253,77 +248,72 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
     int p = m->inst_part[i];
     const int *idx = m->pv_idx + m->pv_off[p];
     const float *own = s->pos + 3 * (size_t)s->inst_pos[i];
-    int k = 0;
-    double wsum = 0;
+    const float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
+    /* one pass of weighted moments: sum w, sum w y, sum w x, sum w y x^T, sum w |y|^2 */
+    double ws = 0, sy[3] = {0}, sx[3] = {0}, syx[9] = {0}, syy = 0;
     for (int o = 0; o < n; o++) {
         int j = ov[o], v = idx[j], c = s->cnt[v] - self_in_acc;
         if (c < 1)
             continue;
-        const float *y = s->loc + 3 * ((size_t)s->inst_pos[i] + j);
-        s->ybuf[3 * k] = y[0];
-        s->ybuf[3 * k + 1] = y[1];
-        s->ybuf[3 * k + 2] = y[2];
-        for (int r = 0; r < 3; r++)
-            s->xbuf[3 * k + r] =
-                (s->acc[3 * (size_t)v + r] - (self_in_acc ? own[3 * j + r] : 0)) / c;
-        s->wbuf[k++] = 1;
-        wsum += 1;
+        const float *y = loc + 3 * j;
+        const double *a = s->acc + 3 * (size_t)v;
+        double inv = 1.0 / c, x[3];
+        if (self_in_acc) {
+            x[0] = (a[0] - own[3 * j]) * inv;
+            x[1] = (a[1] - own[3 * j + 1]) * inv;
+            x[2] = (a[2] - own[3 * j + 2]) * inv;
+        } else {
+            x[0] = a[0] * inv;
+            x[1] = a[1] * inv;
+            x[2] = a[2] * inv;
+        }
+        ws += 1;
+        for (int r = 0; r < 3; r++) {
+            sy[r] += y[r];
+            sx[r] += x[r];
+            syy += (double)y[r] * y[r];
+            syx[3 * r] += y[r] * x[0];
+            syx[3 * r + 1] += y[r] * x[1];
+            syx[3 * r + 2] += y[r] * x[2];
+        }
     }
     int nmk = 0;
     for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++)
         nmk += s->mvalid[s->imk_marker[e]];
     if (m->marker_weight > 0 && nmk > 0) {
-        double w = m->marker_weight * (wsum > 10 ? wsum : 10) / nmk;
+        double w = m->marker_weight * (ws > 10 ? ws : 10) / nmk;
         for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++) {
             int mk = s->imk_marker[e];
             if (!s->mvalid[mk])
                 continue;
-            const float *y = s->loc + 3 * ((size_t)s->inst_pos[i] + s->imk_local[e]);
-            s->ybuf[3 * k] = y[0];
-            s->ybuf[3 * k + 1] = y[1];
-            s->ybuf[3 * k + 2] = y[2];
-            for (int r = 0; r < 3; r++)
-                s->xbuf[3 * k + r] = s->mb[3 * mk + r];
-            s->wbuf[k++] = w;
-            wsum += w;
+            const float *y = loc + 3 * s->imk_local[e];
+            const double *x = s->mb + 3 * mk;
+            ws += w;
+            for (int r = 0; r < 3; r++) {
+                sy[r] += w * y[r];
+                sx[r] += w * x[r];
+                syy += w * (double)y[r] * y[r];
+                for (int c = 0; c < 3; c++)
+                    syx[3 * r + c] += w * y[r] * x[c];
+            }
         }
     }
     double Rp[9];
     mdl__quat_to_mat(s->iq + 4 * i, Rp);
-    double *R = s->iR + 9 * i, *t = s->it + 3 * i;
-    if (k == 0) {
+    double *R = s->iR + 9 * i, *t = s->it + 3 * i, *q = s->cq + 4 * i;
+    if (!(ws > 0)) {
         memcpy(R, Rp, sizeof Rp);
+        memcpy(q, s->iq + 4 * i, 4 * sizeof(double));
         return;
     }
-    double cy[3] = {0}, cx[3] = {0};
-    for (int o = 0; o < k; o++)
-        for (int r = 0; r < 3; r++) {
-            cy[r] += s->wbuf[o] * s->ybuf[3 * o + r];
-            cx[r] += s->wbuf[o] * s->xbuf[3 * o + r];
-        }
-    for (int r = 0; r < 3; r++) {
-        cy[r] /= wsum;
-        cx[r] /= wsum;
-    }
-    double S[9] = {0}, spread = 0;
-    for (int o = 0; o < k; o++) {
-        double yy[3], xx[3], w = s->wbuf[o];
-        for (int r = 0; r < 3; r++) {
-            yy[r] = s->ybuf[3 * o + r] - cy[r];
-            xx[r] = s->xbuf[3 * o + r] - cx[r];
-            spread += w * yy[r] * yy[r];
-        }
-        for (int r = 0; r < 3; r++)
-            for (int c = 0; c < 3; c++)
-                S[3 * r + c] += w * yy[r] * xx[c];
-    }
+    double cy[3] = {sy[0] / ws, sy[1] / ws, sy[2] / ws}, cx[3] = {sx[0] / ws, sx[1] / ws, sx[2] / ws};
+    double S[9], spread = syy - ws * (cy[0] * cy[0] + cy[1] * cy[1] + cy[2] * cy[2]);
     /* prior: + mu * Rp^T; with (nearly) collinear targets it decides the free rotation */
-    double mu = m->prior_weight * spread + 1e-12;
+    double mu = m->prior_weight * (spread > 0 ? spread : 0) + 1e-12;
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++)
-            S[3 * r + c] += mu * Rp[3 * c + r];
-    double q[4];
-    mdl__rot_from_cov(S, q, R);
+            S[3 * r + c] = syx[3 * r + c] - ws * cy[r] * cx[c] + mu * Rp[3 * c + r];
+    mdl__rot_refine(S, q, R);
     for (int r = 0; r < 3; r++)
         t[r] = cx[r] - (R[3 * r] * cy[0] + R[3 * r + 1] * cy[1] + R[3 * r + 2] * cy[2]);
 }
@@ -462,6 +452,7 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
             double *q = s->iq + 4 * i, nq = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3]);
             for (int c = 0; c < 4; c++)
                 q[c] = nq > 1e-9 ? y[c] / nq : (c == 0);
+            memcpy(s->cq + 4 * i, q, 4 * sizeof(double));
             for (int c = 0; c < 3; c++)
                 s->it[3 * i + c] = y[4 + c];
             int p = m->inst_part[i], k = m->pmodes[p];

@@ -186,7 +186,8 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
     ALLOC(m->markers, nm);
     memcpy(m->markers, rig->markers, sizeof *m->markers * (size_t)nm);
     m->nref = rig->nref;
-    memcpy(m->ref, rig->ref, sizeof m->ref);
+    for (int k = 0; k < 3; k++) /* unused slots are stored as 0 */
+        m->ref[k] = k < rig->nref ? rig->ref[k] : 0;
     m->nlimbs = rig->nlimbs;
     ALLOC(m->limb_off, rig->nlimbs + 1);
     memcpy(m->limb_off, rig->limb_off, sizeof(int) * (size_t)(rig->nlimbs + 1));
