@@ -1,6 +1,9 @@
-/* http.c - meshsteerd's dynamic HTTP endpoints: /healthz (JSON) and /metrics (Prometheus text).
- * The viewer at / is a plain lws file mount (meshsteerd.c). Each request renders its body into a
- * per-request buffer, sends the headers, then the body in the WRITEABLE callback. */
+/* http.c - meshsteerd's HTTP side: /healthz (JSON), /metrics (Prometheus text) and the viewer's
+ * static files under web_root. Each request puts its body into a per-request buffer, sends the
+ * headers, then the body in WRITEABLE callbacks (64 KiB per callback). The files are served here
+ * rather than by an lws file mount because lws 4.1.6's file mount answers the second request on a
+ * kept-alive connection with the first one's headers and no body. Paths are confined to web_root
+ * (realpath), GET only. */
 #include "daemon.h"
 #include "log.h"
 
@@ -8,9 +11,16 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <limits.h>
+#include <stdio.h>
+#include <sys/stat.h>
+
+#define HTTP_CHUNK 65536
+#define HTTP_MAX_FILE (16u << 20)
+
 typedef struct http_req {
     char *body; /* LWS_PRE headroom before it */
-    size_t len;
+    size_t len, sent;
 } http_req;
 
 static char *healthz(srv_daemon *d)
@@ -64,6 +74,57 @@ static int respond(struct lws *wsi, http_req *r, unsigned int status, const char
     return 0;
 }
 
+static const char *mime_of(const char *path)
+{
+    static const struct { const char *ext, *type; } types[] = {
+        {".html", "text/html; charset=utf-8"}, {".js", "text/javascript"},
+        {".mjs", "text/javascript"}, {".css", "text/css"}, {".json", "application/json"},
+        {".png", "image/png"}, {".svg", "image/svg+xml"}, {".ico", "image/x-icon"},
+        {".txt", "text/plain; charset=utf-8"},
+    };
+    const char *dot = strrchr(path, '.');
+    for (size_t i = 0; dot && i < sizeof types / sizeof types[0]; i++)
+        if (!strcmp(dot, types[i].ext))
+            return types[i].type;
+    return "application/octet-stream";
+}
+
+/* Reads web_root/uri (index.html for directories) into *body; returns an HTTP status. */
+static unsigned int read_static(const srv_daemon *d, const char *uri, char **body, size_t *len,
+                                const char **type)
+{
+    char want[PATH_MAX * 2], real[PATH_MAX], root[PATH_MAX];
+    if (!d->cfg.web_root[0] || !realpath(d->cfg.web_root, root))
+        return HTTP_STATUS_NOT_FOUND;
+    if (strstr(uri, "..") || strlen(uri) > PATH_MAX / 2)
+        return HTTP_STATUS_FORBIDDEN;
+    snprintf(want, sizeof want, "%s%s", root, uri);
+    struct stat st;
+    if (stat(want, &st) == 0 && S_ISDIR(st.st_mode))
+        strncat(want, uri[strlen(uri) - 1] == '/' ? "index.html" : "/index.html",
+                sizeof want - strlen(want) - 1);
+    if (!realpath(want, real) || strncmp(real, root, strlen(root)) ||
+        (real[strlen(root)] != '/' && real[strlen(root)] != '\0'))
+        return HTTP_STATUS_NOT_FOUND;
+    FILE *f = fopen(real, "rb");
+    if (!f || fstat(fileno(f), &st) || !S_ISREG(st.st_mode) || (size_t)st.st_size > HTTP_MAX_FILE) {
+        if (f)
+            fclose(f);
+        return HTTP_STATUS_NOT_FOUND;
+    }
+    *body = malloc((size_t)st.st_size + 1);
+    size_t n = *body ? fread(*body, 1, (size_t)st.st_size, f) : 0;
+    fclose(f);
+    if (!*body || n != (size_t)st.st_size) {
+        free(*body);
+        *body = NULL;
+        return HTTP_STATUS_INTERNAL_SERVER_ERROR;
+    }
+    *len = n;
+    *type = mime_of(real);
+    return HTTP_STATUS_OK;
+}
+
 static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in,
                          size_t len)
 {
@@ -99,15 +160,35 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
             free(b);
             return rc;
         }
-        static const char msg[] = "not found\n";
-        return respond(wsi, r, HTTP_STATUS_NOT_FOUND, "text/plain", msg, sizeof msg - 1);
+        char *b = NULL;
+        size_t n = 0;
+        const char *type = "text/plain";
+        unsigned int st = read_static(d, uri, &b, &n, &type);
+        if (st != HTTP_STATUS_OK) {
+            static const char msg[] = "not found\n";
+            return respond(wsi, r, st, "text/plain", msg, sizeof msg - 1);
+        }
+        int rc = respond(wsi, r, st, type, b, n);
+        free(b);
+        return rc;
     }
     case LWS_CALLBACK_HTTP_WRITEABLE:
         if (!r->body)
             return -1;
-        if (lws_write(wsi, (unsigned char *)r->body + LWS_PRE, r->len, LWS_WRITE_HTTP_FINAL) !=
-            (int)r->len)
+    {
+        size_t n = r->len - r->sent > HTTP_CHUNK ? HTTP_CHUNK : r->len - r->sent;
+        int final = r->sent + n == r->len;
+        /* lws_write wants LWS_PRE writable bytes before the data: the previous chunk's tail, or
+         * the buffer's own headroom for the first chunk */
+        if (lws_write(wsi, (unsigned char *)r->body + LWS_PRE + r->sent, n,
+                      final ? LWS_WRITE_HTTP_FINAL : LWS_WRITE_HTTP) != (int)n)
             return -1;
+        r->sent += n;
+        if (!final) {
+            lws_callback_on_writable(wsi);
+            return 0;
+        }
+    }
         free(r->body);
         r->body = NULL;
         return lws_http_transaction_completed(wsi) ? -1 : 0;

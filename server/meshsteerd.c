@@ -218,7 +218,9 @@ int main(int argc, char **argv)
 
     static const struct lws_protocol_vhost_options pvo_default = {NULL, NULL, "default", "1"};
     static const struct lws_protocol_vhost_options pvo = {NULL, &pvo_default, SRV_WS_PROTOCOL, ""};
-    const struct lws_protocols protocols[] = {srv_proto_http, srv_proto_stream, {0}};
+    /* every HTTP path is a callback mount bound to srv_proto_http by name (http.c) */
+    const struct lws_protocols protocols[] = {
+        {"http", lws_callback_http_dummy, 0, 0, 0, NULL, 0}, srv_proto_http, srv_proto_stream, {0}};
     struct lws_http_mount m_metrics = {
         .mountpoint = "/metrics", .origin = "meshsteer-http", .origin_protocol = LWSMPRO_CALLBACK,
         .mountpoint_len = 8};
@@ -226,17 +228,18 @@ int main(int argc, char **argv)
         .mount_next = &m_metrics, .mountpoint = "/healthz", .origin = "meshsteer-http",
         .origin_protocol = LWSMPRO_CALLBACK, .mountpoint_len = 8};
     struct lws_http_mount m_root = {
-        .mount_next = &m_health, .mountpoint = "/", .origin = d.cfg.web_root, .def = "index.html",
-        .origin_protocol = LWSMPRO_FILE, .mountpoint_len = 1};
+        .mount_next = &m_health, .mountpoint = "/", .origin = "meshsteer-http",
+        .origin_protocol = LWSMPRO_CALLBACK, .mountpoint_len = 1};
     struct lws_context_creation_info info;
     memset(&info, 0, sizeof info);
     info.port = d.cfg.port; /* 0: any free port, reported below */
     info.iface = d.cfg.listen_host;
     info.protocols = protocols;
     info.pvo = &pvo;
-    info.mounts = d.cfg.web_root[0] ? &m_root : &m_health;
+    info.mounts = &m_root;
     info.user = &d;
-    info.options = LWS_SERVER_OPTION_VALIDATE_UTF8 | LWS_SERVER_OPTION_HTTP_HEADERS_SECURITY_BEST_PRACTICES_ENFORCE;
+    info.options = LWS_SERVER_OPTION_VALIDATE_UTF8 |
+                   LWS_SERVER_OPTION_HTTP_HEADERS_SECURITY_BEST_PRACTICES_ENFORCE;
     info.timeout_secs = 10;
     info.pt_serv_buf_size = 64 * 1024;
     d.ctx = lws_create_context(&info);
