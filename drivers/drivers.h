@@ -77,6 +77,17 @@ void drv_source_close(drv_source *s); /* NULL is fine */
 
 /* The registry of source kinds (source.c); each implementation file adds its ops there. */
 const drv_source_ops *drv_source_find_ops(const char *scheme);
+/* "closed", "open", "streaming", "ended", "lost". */
+const char *drv_state_name(drv_state st);
+
+/* ---- replay of marker files (replay.c) ----
+ * Spec: "replay:FILE[?loop=0|1&speed=S&start=N&scale=M&up=x|y|z|-x|-y|-z]".
+ * FILE is anything mdl_markers_read reads (.c3d .trc .bvh .csv). Frames are released at the
+ * file's fps divided by speed, paced on CLOCK_MONOTONIC; each frame's t_capture_us is the time it
+ * was released. loop=1 wraps to frame 0 at the end (seq keeps counting); otherwise the source ends
+ * (DRV_EEOF). start is the first frame; scale (metres per file unit) and up override the file's
+ * conventions. Controls: "pause" (1/0), "seek" (frame index), "speed" (0 < factor <= 100),
+ * "loop" (1/0). A frame that is more than 250 ms late re-anchors the clock rather than bursting. */
 
 #ifdef __cplusplus
 }

@@ -29,6 +29,16 @@ setup_packages() {
     apt-get install -y -qq "${missing[@]}" >/dev/null
 }
 
+# ---- the daemon: the browser viewer's npm packages (three.js; playwright-core for its test) ----
+# Installed from the committed package-lock.json into clients/web/node_modules (not committed).
+setup_web() {
+    local web=clients/web
+    [ -f "$web/node_modules/three/build/three.module.js" ] &&
+        [ -d "$web/node_modules/playwright-core" ] && return 0
+    command -v npm >/dev/null || { echo "npm is missing (apt-get install npm)" >&2; exit 2; }
+    (cd "$web" && npm ci --no-audit --no-fund)
+}
+
 setup_build() {
     local dir=$1; shift
     if [ ! -f "$dir/build.ninja" ]; then
@@ -41,11 +51,13 @@ cmd=${1:-}
 case "$cmd" in
 demo)
     setup_packages
+    setup_web
     setup_build build
     exec build/server/meshsteer demo
     ;;
 test)
     setup_packages
+    setup_web
     werror=()
     [ "${CI:-}" = "true" ] && werror=(-Dwerror=true)
     setup_build build "${werror[@]}"

@@ -1,0 +1,291 @@
+/* replay.c - a marker source that plays back a marker file (C3D, TRC, BVH, CSV) in real time.
+ *
+ * Pacing: frame n (counted since the last re-anchoring, across loops) is due at
+ *     t_due(n) = t_anchor + (n - n_anchor) * 1e6 / (fps * speed)   [CLOCK_MONOTONIC, us]
+ * read() sleeps (clock_nanosleep, absolute) until t_due or its own timeout, whichever is first.
+ * Pause, seek, a speed change and a late frame (> REPLAY_LATE_US behind) re-anchor the clock at
+ * the current time, so the stream never bursts to catch up. The frame's capture stamp is the
+ * clock when it was released. Everything is read at open; read() copies and allocates nothing. */
+#include "drivers.h"
+#include "model.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define REPLAY_LATE_US 250000
+#define REPLAY_DEFAULT_FPS 30.0
+#define REPLAY_MAX_SPEED 100.0
+
+typedef struct replay {
+    mdl_markers *m;
+    int loop;
+    double speed;
+    int paused;
+    int idx;           /* file frame to emit next */
+    uint64_t n;        /* frames emitted since start */
+    uint64_t n_anchor; /* n at the anchor */
+    uint64_t t_anchor; /* us */
+    double fps;
+} replay;
+
+static int rp_err(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int rp_err(char *err, int code, const char *fmt, ...)
+{
+    if (err) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, DRV_ERR_LEN, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+static uint64_t now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+static void sleep_until_us(uint64_t t)
+{
+    struct timespec ts = {.tv_sec = (time_t)(t / 1000000u), .tv_nsec = (long)(t % 1000000u) * 1000};
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR)
+        ;
+}
+
+static uint64_t due_us(const replay *r)
+{
+    double period = 1e6 / (r->fps * r->speed);
+    return r->t_anchor + (uint64_t)llround((double)(r->n - r->n_anchor) * period);
+}
+
+static void reanchor(replay *r, uint64_t t)
+{
+    r->t_anchor = t;
+    r->n_anchor = r->n;
+}
+
+static int parse_num(const char *file, const char *key, const char *val, double lo, double hi,
+                     double *out, char *err)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(val, &end);
+    if (end == val || *end || errno || !isfinite(v))
+        return rp_err(err, -EINVAL, "replay %s: option %s: '%s' is not a number", file, key, val);
+    if (v < lo || v > hi)
+        return rp_err(err, -ERANGE, "replay %s: option %s=%g outside [%g, %g]", file, key, v, lo,
+                      hi);
+    *out = v;
+    return 0;
+}
+
+static int parse_up(const char *file, const char *val, int *up, char *err)
+{
+    static const struct { const char *name; int up; } axes[] = {
+        {"x", MDL_UP_X}, {"y", MDL_UP_Y}, {"z", MDL_UP_Z},
+        {"-x", MDL_UP_NEG_X}, {"-y", MDL_UP_NEG_Y}, {"-z", MDL_UP_NEG_Z}, {"auto", MDL_UP_AUTO},
+    };
+    for (size_t i = 0; i < sizeof axes / sizeof axes[0]; i++)
+        if (!strcmp(val, axes[i].name)) {
+            *up = axes[i].up;
+            return 0;
+        }
+    return rp_err(err, -EINVAL, "replay %s: option up='%s' (expected x, y, z, -x, -y, -z or auto)",
+                  file, val);
+}
+
+static int replay_open(drv_source *s, const char *arg, char *err)
+{
+    char path[4096];
+    size_t alen = strlen(arg);
+    if (alen == 0)
+        return rp_err(err, -EINVAL, "replay: missing file name (replay:FILE?loop=1&speed=1)");
+    if (alen >= sizeof path)
+        return rp_err(err, -ENAMETOOLONG, "replay: file name too long");
+    memcpy(path, arg, alen + 1);
+    char *q = strrchr(path, '?');
+    if (q)
+        *q++ = '\0';
+
+    double loop = 0, speed = 1, start = 0;
+    mdl_marker_opts o = {0, MDL_UP_AUTO};
+    for (char *save = NULL, *kv = q ? strtok_r(q, "&", &save) : NULL; kv;
+         kv = strtok_r(NULL, "&", &save)) {
+        char *eq = strchr(kv, '=');
+        if (!eq)
+            return rp_err(err, -EINVAL, "replay %s: option '%s' needs a value (key=value)", path,
+                          kv);
+        *eq++ = '\0';
+        int r;
+        if (!strcmp(kv, "loop"))
+            r = parse_num(path, kv, eq, 0, 1, &loop, err);
+        else if (!strcmp(kv, "speed"))
+            r = parse_num(path, kv, eq, 1e-3, REPLAY_MAX_SPEED, &speed, err);
+        else if (!strcmp(kv, "start"))
+            r = parse_num(path, kv, eq, 0, 2e9, &start, err);
+        else if (!strcmp(kv, "scale"))
+            r = parse_num(path, kv, eq, 1e-9, 1e9, &o.scale, err);
+        else if (!strcmp(kv, "up"))
+            r = parse_up(path, eq, &o.up, err);
+        else
+            r = rp_err(err, -EINVAL,
+                       "replay %s: unknown option '%s' (known: loop, speed, start, scale, up)", path,
+                       kv);
+        if (r)
+            return r;
+        if (!strcmp(kv, "loop") && loop != 0 && loop != 1)
+            return rp_err(err, -EINVAL, "replay %s: option loop must be 0 or 1", path);
+    }
+    if (start != floor(start))
+        return rp_err(err, -EINVAL, "replay %s: option start must be a whole frame number", path);
+
+    replay *r = calloc(1, sizeof *r);
+    if (!r)
+        return rp_err(err, -ENOMEM, "replay %s: out of memory", path);
+    char merr[MDL_ERR_LEN] = "";
+    int rc = mdl_markers_read(path, &o, &r->m, merr);
+    if (rc) {
+        free(r);
+        return rp_err(err, rc, "replay: %s", merr);
+    }
+    if (r->m->frames <= 0 || r->m->count <= 0) {
+        mdl_markers_destroy(r->m);
+        free(r);
+        return rp_err(err, MDL_EFORMAT, "replay %s: no frames or no markers", path);
+    }
+    if (start >= r->m->frames) {
+        int frames = r->m->frames;
+        mdl_markers_destroy(r->m);
+        free(r);
+        return rp_err(err, -ERANGE, "replay %s: start=%.0f but the file has %d frames", path, start,
+                      frames);
+    }
+    r->loop = loop != 0;
+    r->speed = speed;
+    r->idx = (int)start;
+    r->fps = r->m->fps > 0 && isfinite(r->m->fps) ? r->m->fps : REPLAY_DEFAULT_FPS;
+    s->impl = r;
+    s->count = r->m->count;
+    s->names = (const char **)r->m->names;
+    s->fps = r->fps;
+    return 0;
+}
+
+static int replay_start(drv_source *s, char *err)
+{
+    (void)err;
+    replay *r = s->impl;
+    reanchor(r, now_us());
+    return 0;
+}
+
+static int replay_read(drv_source *s, drv_frame *f, int timeout_ms, char *err)
+{
+    (void)err;
+    replay *r = s->impl;
+    uint64_t now = now_us();
+    uint64_t deadline = now + (uint64_t)(timeout_ms > 0 ? timeout_ms : 0) * 1000u;
+    if (r->paused) {
+        sleep_until_us(deadline);
+        return DRV_ETIMEOUT;
+    }
+    if (r->idx >= r->m->frames) {
+        if (!r->loop)
+            return DRV_EEOF;
+        r->idx = 0;
+    }
+    uint64_t due = due_us(r);
+    if (now > due + REPLAY_LATE_US) {
+        reanchor(r, now);
+        due = now;
+    }
+    if (due > deadline) {
+        sleep_until_us(deadline);
+        return DRV_ETIMEOUT;
+    }
+    if (due > now)
+        sleep_until_us(due);
+
+    int c = r->m->count;
+    memcpy(f->xyz, r->m->P + (size_t)r->idx * (size_t)c * 3, (size_t)c * 3 * sizeof(float));
+    memcpy(f->valid, r->m->valid + (size_t)r->idx * (size_t)c, (size_t)c);
+    f->seq = r->n;
+    f->t_capture_us = now_us();
+    r->n++;
+    r->idx++;
+    if (r->idx >= r->m->frames && r->loop)
+        r->idx = 0;
+    return 0;
+}
+
+static int replay_control(drv_source *s, const char *key, double value, char *err)
+{
+    replay *r = s->impl;
+    if (!isfinite(value))
+        return rp_err(err, -EINVAL, "replay: %s: value is not finite", key);
+    if (!strcmp(key, "pause")) {
+        if (value != 0 && value != 1)
+            return rp_err(err, -EINVAL, "replay: pause must be 0 or 1");
+        if (r->paused && value == 0)
+            reanchor(r, now_us());
+        r->paused = value != 0;
+        return 0;
+    }
+    if (!strcmp(key, "seek")) {
+        if (value < 0 || value >= r->m->frames || value != floor(value))
+            return rp_err(err, -ERANGE, "replay: seek to %g outside the %d frames [0, %d]", value,
+                          r->m->frames, r->m->frames - 1);
+        r->idx = (int)value;
+        reanchor(r, now_us());
+        return 0;
+    }
+    if (!strcmp(key, "speed")) {
+        if (!(value > 0 && value <= REPLAY_MAX_SPEED))
+            return rp_err(err, -ERANGE, "replay: speed %g outside (0, %g]", value,
+                          REPLAY_MAX_SPEED);
+        uint64_t now = now_us(), due = due_us(r);
+        reanchor(r, due > now ? due : now);
+        r->speed = value;
+        return 0;
+    }
+    if (!strcmp(key, "loop")) {
+        if (value != 0 && value != 1)
+            return rp_err(err, -EINVAL, "replay: loop must be 0 or 1");
+        r->loop = value != 0;
+        return 0;
+    }
+    return rp_err(err, -ENOTSUP, "replay: unknown control '%s' (known: pause, seek, speed, loop)",
+                  key);
+}
+
+static void replay_stop(drv_source *s)
+{
+    (void)s;
+}
+
+static void replay_close(drv_source *s)
+{
+    replay *r = s->impl;
+    if (!r)
+        return;
+    mdl_markers_destroy(r->m);
+    free(r);
+    s->impl = NULL;
+}
+
+const drv_source_ops drv_replay_ops = {
+    .scheme = "replay",
+    .open = replay_open,
+    .start = replay_start,
+    .read = replay_read,
+    .control = replay_control,
+    .stop = replay_stop,
+    .close = replay_close,
+};

@@ -1,0 +1,57 @@
+/* daemon.h - state shared by meshsteerd's lws protocols (proto_stream.c, http.c) and its main loop
+ * (meshsteerd.c). Everything here is touched only by the lws service thread (the main thread),
+ * except `metrics` (atomics) and `pipe` (its own locking). */
+#ifndef MESHSTEER_SERVER_DAEMON_H
+#define MESHSTEER_SERVER_DAEMON_H
+
+#include "daemon_config.h"
+#include "metrics.h"
+#include "pipeline.h"
+
+#include <libwebsockets.h>
+
+#define SRV_WS_PROTOCOL "meshsteer.v1" /* Sec-WebSocket-Protocol; optional for clients */
+#define SRV_REPLY_QUEUE 8
+
+typedef struct srv_session srv_session;
+
+typedef struct srv_daemon {
+    srv_config cfg;
+    srv_metrics metrics;
+    srv_pipeline *pipe;
+    struct lws_context *ctx;
+    srv_session *sessions; /* every established /stream session */
+    int nsessions;
+    uint64_t next_tag;
+    uint64_t t_start_us;
+    int draining;          /* shutting down: close every session */
+    char model_name[128];
+    uint32_t generation;
+} srv_daemon;
+
+struct srv_session {
+    srv_session *next;
+    struct lws *wsi;
+    uint64_t tag;
+    srv_gen *gen;     /* the generation this client was greeted with (referenced) */
+    int stage;        /* 0 hello due, 1 topology due, 2 streaming */
+    int encoding;
+    uint64_t last_seq;
+    uint64_t frames, skipped;
+    unsigned char *rx; /* max_message bytes */
+    size_t rx_len;
+    int rx_binary;
+    char *replies;     /* SRV_REPLY_QUEUE x (LWS_PRE + SRV_REPLY_LEN) */
+    size_t reply_len[SRV_REPLY_QUEUE];
+    int reply_head, nreplies;
+    int timeout_armed;
+    uint64_t armed_at_us;
+};
+
+extern const struct lws_protocols srv_proto_stream;
+extern const struct lws_protocols srv_proto_http;
+
+/* Asks every session to be written to (new frame, results, shutdown). lws thread only. */
+void srv_stream_kick_all(srv_daemon *d);
+
+#endif

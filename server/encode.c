@@ -1,0 +1,353 @@
+/* encode.c - hello, topology and frame messages of protocol 1, and the generation that owns them
+ * (see encode.h and docs/PROTOCOL.md). */
+#include "encode.h"
+#include "daemon_config.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <libwebsockets.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int enc_err(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int enc_err(char *err, int code, const char *fmt, ...)
+{
+    if (err) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, SRV_ERR_LEN, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+static const char *const enc_names[SRV_ENC_COUNT] = {"float32", "int16"};
+
+int srv_encoding_parse(const char *name)
+{
+    for (int i = 0; i < SRV_ENC_COUNT; i++)
+        if (!strcmp(name, enc_names[i]))
+            return i;
+    return -1;
+}
+
+const char *srv_encoding_name(int enc)
+{
+    return enc >= 0 && enc < SRV_ENC_COUNT ? enc_names[enc] : "?";
+}
+
+static size_t pad4(size_t n)
+{
+    return (n + 3) & ~(size_t)3;
+}
+
+size_t srv_frame_size(int enc, int nv, int nm)
+{
+    size_t vb = enc == SRV_ENC_INT16 ? (size_t)nv * 3 * 2 : (size_t)nv * 3 * 4;
+    return SRV_FRAME_HEADER + pad4(vb) + (size_t)nm * 12 + pad4((size_t)nm);
+}
+
+size_t srv_topology_size(int nv, int nf)
+{
+    return SRV_TOPO_HEADER + (size_t)nv * 12 + (size_t)nf * 12 + (size_t)nv * 4;
+}
+
+static void put_f32(unsigned char *p, float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    srv_put_u32(p, u);
+}
+
+static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv_source_desc *src)
+{
+    cJSON *h = cJSON_CreateObject();
+    if (!h)
+        return NULL;
+    cJSON_AddStringToObject(h, "type", "hello");
+    cJSON_AddNumberToObject(h, "protocol", SRV_PROTOCOL);
+    cJSON_AddStringToObject(h, "server", "meshsteerd " MESHSTEER_VERSION);
+    cJSON_AddNumberToObject(h, "generation", g->id);
+    cJSON *m = cJSON_AddObjectToObject(h, "model");
+    cJSON_AddStringToObject(m, "name", g->name);
+    cJSON_AddNumberToObject(m, "vertices", g->nv);
+    cJSON_AddNumberToObject(m, "faces", g->nf);
+    cJSON_AddNumberToObject(m, "parts", g->nparts);
+    char topo[20];
+    snprintf(topo, sizeof topo, "%016llx", (unsigned long long)g->topology);
+    cJSON_AddStringToObject(m, "topology", topo);
+    cJSON_AddNumberToObject(m, "fps", info->fps);
+    float bmin[3] = {info->bbox_min[0], info->bbox_min[1], info->bbox_min[2]};
+    float bmax[3] = {info->bbox_max[0], info->bbox_max[1], info->bbox_max[2]};
+    cJSON_AddItemToObject(m, "bbox_min", cJSON_CreateFloatArray(bmin, 3));
+    cJSON_AddItemToObject(m, "bbox_max", cJSON_CreateFloatArray(bmax, 3));
+    cJSON_AddItemToObject(m, "quant_min", cJSON_CreateFloatArray(g->qmin, 3));
+    cJSON_AddItemToObject(m, "quant_max", cJSON_CreateFloatArray(g->qmax, 3));
+    cJSON *mk = cJSON_AddArrayToObject(h, "markers");
+    for (int i = 0; i < g->nm; i++) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "name", info->markers[i].name);
+        cJSON_AddStringToObject(o, "source", info->markers[i].source[0] ? info->markers[i].source
+                                                                        : info->markers[i].name);
+        cJSON_AddBoolToObject(o, "bound", g->map && g->map[i] >= 0);
+        cJSON_AddItemToArray(mk, o);
+    }
+    cJSON *s = cJSON_AddObjectToObject(h, "source");
+    cJSON_AddStringToObject(s, "spec", src && src->spec ? src->spec : "");
+    cJSON_AddStringToObject(s, "scheme", src && src->scheme ? src->scheme : "");
+    cJSON_AddNumberToObject(s, "fps", src ? src->fps : 0);
+    cJSON_AddNumberToObject(s, "markers", src ? src->count : 0);
+    cJSON *ctl = cJSON_AddArrayToObject(s, "controls");
+    if (src && src->controllable)
+        for (const char *const *c = (const char *const[]){"pause", "resume", "seek", "speed", NULL};
+             *c; c++)
+            cJSON_AddItemToArray(ctl, cJSON_CreateString(*c));
+    cJSON *e = cJSON_AddArrayToObject(h, "encodings");
+    for (int i = 0; i < SRV_ENC_COUNT; i++)
+        cJSON_AddItemToArray(e, cJSON_CreateString(enc_names[i]));
+    char *txt = cJSON_PrintUnformatted(h);
+    cJSON_Delete(h);
+    return txt;
+}
+
+int srv_gen_create(const mdl_model_info *info, const int *map,
+                   const srv_source_desc *src, uint32_t id, srv_gen **out, char *err)
+{
+    *out = NULL;
+    if (info->nv <= 0 || info->nf < 0 || info->nmarkers < 0 || !info->rest ||
+        (info->nf > 0 && !info->F))
+        return enc_err(err, -EINVAL, "model has no mesh");
+    if (info->nv > (1 << 24) || info->nf > (1 << 25) || info->nmarkers > 65535)
+        return enc_err(err, -EFBIG, "model too large to stream (%d vertices, %d faces)", info->nv,
+                       info->nf);
+    srv_gen *g = calloc(1, sizeof *g);
+    if (!g)
+        return enc_err(err, -ENOMEM, "out of memory");
+    atomic_init(&g->refs, 1);
+    g->id = id;
+    g->nv = info->nv;
+    g->nf = info->nf;
+    g->nm = info->nmarkers;
+    g->topology = info->topology;
+    snprintf(g->name, sizeof g->name, "%s", info->name ? info->name : "");
+    /* the parts: ids must lie in [0, nparts) */
+    g->nparts = info->part ? (info->nclusters > 0 ? info->nclusters : 1) : 1;
+    if (info->part)
+        for (int i = 0; i < g->nv; i++)
+            if (info->part[i] < 0 || info->part[i] >= g->nparts) {
+                int np = g->nparts;
+                free(g);
+                return enc_err(err, -EINVAL, "vertex %d: part %d outside [0, %d)", i,
+                               info->part[i], np);
+            }
+    /* the quantisation box */
+    float lo[3], hi[3], ext = 0;
+    for (int a = 0; a < 3; a++) {
+        lo[a] = info->bbox_min[a];
+        hi[a] = info->bbox_max[a];
+        if (!(isfinite(lo[a]) && isfinite(hi[a]) && hi[a] >= lo[a])) { /* fall back to the rest pose */
+            lo[a] = hi[a] = info->rest[a];
+            for (int i = 0; i < g->nv; i++) {
+                float x = info->rest[(size_t)i * 3 + (size_t)a];
+                lo[a] = x < lo[a] ? x : lo[a];
+                hi[a] = x > hi[a] ? x : hi[a];
+            }
+        }
+        ext = hi[a] - lo[a] > ext ? hi[a] - lo[a] : ext;
+    }
+    if (!(ext > 0))
+        ext = 1;
+    for (int a = 0; a < 3; a++) {
+        g->qmin[a] = lo[a] - SRV_QBOX_MARGIN * ext;
+        g->qmax[a] = hi[a] + SRV_QBOX_MARGIN * ext;
+    }
+
+    size_t fsz[SRV_ENC_COUNT], total = 0;
+    size_t tsz = srv_topology_size(g->nv, g->nf);
+    for (int e = 0; e < SRV_ENC_COUNT; e++) {
+        fsz[e] = srv_frame_size(e, g->nv, g->nm);
+        total += SRV_POOL * (LWS_PRE + fsz[e]);
+    }
+    total += LWS_PRE + tsz;
+    g->storage = malloc(total);
+    g->map = malloc(sizeof(int) * (size_t)(g->nm ? g->nm : 1));
+    char *hello = NULL;
+    if (g->storage && g->map) {
+        for (int i = 0; i < g->nm; i++)
+            g->map[i] = map ? map[i] : -1;
+        hello = build_hello(info, g, src);
+    }
+    if (!hello) {
+        free(g->storage);
+        free(g->map);
+        free(g);
+        return enc_err(err, -ENOMEM, "out of memory for %zu bytes of frame buffers", total);
+    }
+    size_t hl = strlen(hello);
+    g->hello = malloc(LWS_PRE + hl + 1);
+    if (!g->hello) {
+        cJSON_free(hello);
+        free(g->storage);
+        free(g->map);
+        free(g);
+        return enc_err(err, -ENOMEM, "out of memory");
+    }
+    memcpy(g->hello + LWS_PRE, hello, hl + 1);
+    cJSON_free(hello);
+    g->hello += LWS_PRE;
+    g->hello_len = hl;
+
+    unsigned char *p = g->storage;
+    for (int k = 0; k < SRV_POOL; k++) {
+        srv_frame *f = &g->frames[k];
+        atomic_init(&f->refs, 0);
+        f->gen = g;
+        for (int e = 0; e < SRV_ENC_COUNT; e++) {
+            f->msg[e] = p + LWS_PRE;
+            f->len[e] = fsz[e];
+            memset(f->msg[e], 0, fsz[e]);
+            memcpy(f->msg[e], SRV_FRAME_MAGIC, 4);
+            f->msg[e][SRV_FRAME_OFF_ENCODING] = (unsigned char)e;
+            srv_put_u32(f->msg[e] + SRV_FRAME_OFF_GENERATION, id);
+            srv_put_u32(f->msg[e] + SRV_FRAME_OFF_NV, (uint32_t)g->nv);
+            srv_put_u32(f->msg[e] + SRV_FRAME_OFF_NM, (uint32_t)g->nm);
+            p += LWS_PRE + fsz[e];
+        }
+    }
+    /* the topology message */
+    g->topo = p + LWS_PRE;
+    g->topo_len = tsz;
+    unsigned char *t = g->topo;
+    memset(t, 0, SRV_TOPO_HEADER);
+    memcpy(t, SRV_TOPO_MAGIC, 4);
+    srv_put_u16(t + 4, SRV_PROTOCOL);
+    srv_put_u32(t + 8, id);
+    srv_put_u32(t + 12, (uint32_t)g->nv);
+    srv_put_u32(t + 16, (uint32_t)g->nf);
+    srv_put_u32(t + 20, (uint32_t)g->nm);
+    srv_put_u32(t + 24, (uint32_t)g->nparts);
+    for (int a = 0; a < 3; a++) {
+        put_f32(t + 32 + 4 * a, g->qmin[a]);
+        put_f32(t + 44 + 4 * a, g->qmax[a]);
+    }
+    t += SRV_TOPO_HEADER;
+    for (size_t i = 0; i < (size_t)g->nv * 3; i++, t += 4)
+        put_f32(t, info->rest[i]);
+    for (size_t i = 0; i < (size_t)g->nf * 3; i++, t += 4)
+        srv_put_u32(t, info->F[i]);
+    for (int i = 0; i < g->nv; i++, t += 4)
+        srv_put_u32(t, info->part ? (uint32_t)info->part[i] : 0);
+    *out = g;
+    return 0;
+}
+
+void srv_gen_ref(srv_gen *g)
+{
+    atomic_fetch_add(&g->refs, 1);
+}
+
+void srv_gen_unref(srv_gen *g)
+{
+    if (!g || atomic_fetch_sub(&g->refs, 1) != 1)
+        return;
+    free(g->hello ? g->hello - LWS_PRE : NULL);
+    free(g->storage);
+    free(g->map);
+    free(g);
+}
+
+srv_frame *srv_gen_free_frame(srv_gen *g)
+{
+    for (int k = 0; k < SRV_POOL; k++)
+        if (atomic_load(&g->frames[k].refs) == 0)
+            return &g->frames[k];
+    return NULL;
+}
+
+void srv_frame_ref(srv_frame *f)
+{
+    srv_gen_ref(f->gen);
+    atomic_fetch_add(&f->refs, 1);
+}
+
+void srv_frame_unref(srv_frame *f)
+{
+    if (!f)
+        return;
+    srv_gen *g = f->gen;
+    atomic_fetch_sub(&f->refs, 1);
+    srv_gen_unref(g);
+}
+
+static void put_header(unsigned char *m, uint64_t seq, uint64_t tc, uint64_t ts, int flags,
+                       int missing)
+{
+    m[SRV_FRAME_OFF_FLAGS] = (unsigned char)flags;
+    srv_put_u16(m + SRV_FRAME_OFF_MISSING, (uint16_t)(missing > 65535 ? 65535 : missing));
+    srv_put_u32(m + SRV_FRAME_OFF_SKIPPED, 0);
+    srv_put_u64(m + SRV_FRAME_OFF_SEQ, seq);
+    srv_put_u64(m + SRV_FRAME_OFF_CAPTURE, tc);
+    srv_put_u64(m + SRV_FRAME_OFF_SYNTH, ts);
+    srv_put_u64(m + SRV_FRAME_OFF_SEND, 0);
+}
+
+static void put_markers(unsigned char *p, int nm, const float *markers, const uint8_t *valid)
+{
+    for (int i = 0; i < nm; i++) {
+        int ok = valid ? valid[i] != 0 : 1;
+        for (int a = 0; a < 3; a++, p += 4)
+            put_f32(p, ok ? markers[(size_t)i * 3 + (size_t)a] : 0.0f);
+    }
+    for (int i = 0; i < nm; i++)
+        p[i] = valid ? (valid[i] != 0) : 1;
+    for (size_t i = (size_t)nm; i < pad4((size_t)nm); i++)
+        p[i] = 0;
+}
+
+void srv_frame_encode(srv_frame *f, uint64_t seq, uint64_t t_capture_us, uint64_t t_synth_us,
+                      const float *V, const float *markers, const uint8_t *valid, int flags,
+                      int missing)
+{
+    const srv_gen *g = f->gen;
+    size_t n3 = (size_t)g->nv * 3;
+    f->seq = seq;
+    f->t_capture_us = t_capture_us;
+
+    unsigned char *m = f->msg[SRV_ENC_FLOAT32];
+    put_header(m, seq, t_capture_us, t_synth_us, flags, missing);
+    unsigned char *p = m + SRV_FRAME_HEADER;
+    for (size_t i = 0; i < n3; i++, p += 4)
+        put_f32(p, V[i]);
+    put_markers(p, g->nm, markers, valid);
+
+    m = f->msg[SRV_ENC_INT16];
+    p = m + SRV_FRAME_HEADER;
+    float scale[3];
+    for (int a = 0; a < 3; a++)
+        scale[a] = 65535.0f / (g->qmax[a] - g->qmin[a]);
+    int clamped = 0;
+    for (size_t i = 0; i < n3; i++, p += 2) {
+        int a = (int)(i % 3);
+        float u = (V[i] - g->qmin[a]) * scale[a];
+        long q;
+        if (!(u >= 0.0f)) { /* also NaN */
+            q = 0;
+            clamped = 1;
+        } else if (u > 65535.0f) {
+            q = 65535;
+            clamped = 1;
+        } else {
+            q = lrintf(u);
+        }
+        srv_put_u16(p, (uint16_t)(q - 32768)); /* two's complement int16 */
+    }
+    if (n3 & 1) { /* pad the vertex block to 4 bytes */
+        p[0] = p[1] = 0;
+        p += 2;
+    }
+    put_header(m, seq, t_capture_us, t_synth_us, flags | (clamped ? SRV_FLAG_CLAMPED : 0), missing);
+    put_markers(p, g->nm, markers, valid);
+}

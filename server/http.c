@@ -1,0 +1,211 @@
+/* http.c - meshsteerd's HTTP side: /healthz (JSON), /metrics (Prometheus text) and the viewer's
+ * static files under web_root. Each request puts its body into a per-request buffer, sends the
+ * headers, then the body in WRITEABLE callbacks (64 KiB per callback). The files are served here
+ * rather than by an lws file mount because lws 4.1.6's file mount answers the second request on a
+ * kept-alive connection with the first one's headers and no body. Paths are confined to web_root
+ * (realpath), GET only. */
+#include "daemon.h"
+#include "log.h"
+
+#include <cjson/cJSON.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <limits.h>
+#include <stdio.h>
+#include <sys/stat.h>
+
+#define HTTP_CHUNK 65536
+#define HTTP_MAX_FILE (16u << 20)
+
+typedef struct http_req {
+    char *body; /* LWS_PRE headroom before it */
+    size_t len, sent;
+} http_req;
+
+static char *healthz(srv_daemon *d)
+{
+    cJSON *h = cJSON_CreateObject();
+    if (!h)
+        return NULL;
+    drv_state st = srv_pipeline_source_state(d->pipe);
+    srv_gen *g = srv_pipeline_current(d->pipe);
+    int ok = st == DRV_STATE_STREAMING || st == DRV_STATE_OPEN || st == DRV_STATE_ENDED;
+    cJSON_AddStringToObject(h, "status", ok ? "ok" : "degraded");
+    cJSON_AddNumberToObject(h, "protocol", SRV_PROTOCOL);
+    cJSON_AddStringToObject(h, "version", MESHSTEER_VERSION);
+    cJSON *m = cJSON_AddObjectToObject(h, "model");
+    cJSON_AddStringToObject(m, "name", g->name);
+    cJSON_AddStringToObject(m, "path", d->cfg.model);
+    cJSON_AddNumberToObject(m, "generation", g->id);
+    cJSON_AddNumberToObject(m, "vertices", g->nv);
+    cJSON_AddNumberToObject(m, "faces", g->nf);
+    cJSON_AddNumberToObject(m, "markers", g->nm);
+    srv_gen_unref(g);
+    cJSON *s = cJSON_AddObjectToObject(h, "source");
+    cJSON_AddStringToObject(s, "spec", d->cfg.source);
+    cJSON_AddStringToObject(s, "state", drv_state_name(st));
+    cJSON_AddNumberToObject(h, "clients", d->nsessions);
+    cJSON_AddNumberToObject(h, "frames_in", (double)atomic_load(&d->metrics.frames_in));
+    cJSON_AddNumberToObject(h, "frames_synthesized", (double)atomic_load(&d->metrics.frames_synth));
+    cJSON_AddNumberToObject(h, "frames_served", (double)atomic_load(&d->metrics.frames_out));
+    cJSON_AddNumberToObject(h, "uptime_s", (double)(srv_now_us() - d->t_start_us) * 1e-6);
+    char *txt = cJSON_PrintUnformatted(h);
+    cJSON_Delete(h);
+    return txt;
+}
+
+static int respond(struct lws *wsi, http_req *r, unsigned int status, const char *type,
+                   const char *body, size_t len)
+{
+    r->body = malloc(LWS_PRE + len + 1);
+    if (!r->body)
+        return -1;
+    memcpy(r->body + LWS_PRE, body, len);
+    r->len = len;
+    unsigned char hdr[LWS_PRE + 1024], *start = hdr + LWS_PRE, *p = start,
+                                       *end = hdr + sizeof hdr - 1;
+    if (lws_add_http_common_headers(wsi, status, type, (lws_filepos_t)len, &p, end) ||
+        lws_add_http_header_by_token(wsi, WSI_TOKEN_HTTP_CACHE_CONTROL,
+                                     (const unsigned char *)"no-store", 8, &p, end) ||
+        lws_finalize_write_http_header(wsi, start, &p, end))
+        return -1;
+    lws_callback_on_writable(wsi);
+    return 0;
+}
+
+static const char *mime_of(const char *path)
+{
+    static const struct { const char *ext, *type; } types[] = {
+        {".html", "text/html; charset=utf-8"}, {".js", "text/javascript"},
+        {".mjs", "text/javascript"}, {".css", "text/css"}, {".json", "application/json"},
+        {".png", "image/png"}, {".svg", "image/svg+xml"}, {".ico", "image/x-icon"},
+        {".txt", "text/plain; charset=utf-8"},
+    };
+    const char *dot = strrchr(path, '.');
+    for (size_t i = 0; dot && i < sizeof types / sizeof types[0]; i++)
+        if (!strcmp(dot, types[i].ext))
+            return types[i].type;
+    return "application/octet-stream";
+}
+
+/* Reads web_root/uri (index.html for directories) into *body; returns an HTTP status. */
+static unsigned int read_static(const srv_daemon *d, const char *uri, char **body, size_t *len,
+                                const char **type)
+{
+    char want[PATH_MAX * 2], real[PATH_MAX], root[PATH_MAX];
+    if (!d->cfg.web_root[0] || !realpath(d->cfg.web_root, root))
+        return HTTP_STATUS_NOT_FOUND;
+    if (strstr(uri, "..") || strlen(uri) > PATH_MAX / 2)
+        return HTTP_STATUS_FORBIDDEN;
+    snprintf(want, sizeof want, "%s%s", root, uri);
+    struct stat st;
+    if (stat(want, &st) == 0 && S_ISDIR(st.st_mode))
+        strncat(want, uri[strlen(uri) - 1] == '/' ? "index.html" : "/index.html",
+                sizeof want - strlen(want) - 1);
+    if (!realpath(want, real) || strncmp(real, root, strlen(root)) ||
+        (real[strlen(root)] != '/' && real[strlen(root)] != '\0'))
+        return HTTP_STATUS_NOT_FOUND;
+    FILE *f = fopen(real, "rb");
+    if (!f || fstat(fileno(f), &st) || !S_ISREG(st.st_mode) || (size_t)st.st_size > HTTP_MAX_FILE) {
+        if (f)
+            fclose(f);
+        return HTTP_STATUS_NOT_FOUND;
+    }
+    *body = malloc((size_t)st.st_size + 1);
+    size_t n = *body ? fread(*body, 1, (size_t)st.st_size, f) : 0;
+    fclose(f);
+    if (!*body || n != (size_t)st.st_size) {
+        free(*body);
+        *body = NULL;
+        return HTTP_STATUS_INTERNAL_SERVER_ERROR;
+    }
+    *len = n;
+    *type = mime_of(real);
+    return HTTP_STATUS_OK;
+}
+
+static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in,
+                         size_t len)
+{
+    srv_daemon *d = lws_context_user(lws_get_context(wsi));
+    http_req *r = user;
+    (void)in;
+    switch (reason) {
+    case LWS_CALLBACK_HTTP: {
+        memset(r, 0, sizeof *r);
+        char uri[256];
+        if (lws_hdr_copy(wsi, uri, sizeof uri, WSI_TOKEN_GET_URI) <= 0) {
+            static const char msg[] = "only GET\n";
+            return respond(wsi, r, HTTP_STATUS_METHOD_NOT_ALLOWED, "text/plain", msg,
+                           sizeof msg - 1);
+        }
+        if (!strcmp(uri, "/healthz")) {
+            char *b = healthz(d);
+            if (!b)
+                return -1;
+            int rc = respond(wsi, r, HTTP_STATUS_OK, "application/json", b, strlen(b));
+            cJSON_free(b);
+            return rc;
+        }
+        if (!strcmp(uri, "/metrics")) {
+            double up = (double)(srv_now_us() - d->t_start_us) * 1e-6;
+            size_t need = srv_metrics_render(&d->metrics, up, NULL, 0);
+            char *b = malloc(need + 1);
+            if (!b)
+                return -1;
+            srv_metrics_render(&d->metrics, up, b, need + 1);
+            int rc = respond(wsi, r, HTTP_STATUS_OK, "text/plain; version=0.0.4; charset=utf-8", b,
+                             need);
+            free(b);
+            return rc;
+        }
+        char *b = NULL;
+        size_t n = 0;
+        const char *type = "text/plain";
+        unsigned int st = read_static(d, uri, &b, &n, &type);
+        if (st != HTTP_STATUS_OK) {
+            static const char msg[] = "not found\n";
+            return respond(wsi, r, st, "text/plain", msg, sizeof msg - 1);
+        }
+        int rc = respond(wsi, r, st, type, b, n);
+        free(b);
+        return rc;
+    }
+    case LWS_CALLBACK_HTTP_WRITEABLE:
+        if (!r->body)
+            return -1;
+    {
+        size_t n = r->len - r->sent > HTTP_CHUNK ? HTTP_CHUNK : r->len - r->sent;
+        int final = r->sent + n == r->len;
+        /* lws_write wants LWS_PRE writable bytes before the data: the previous chunk's tail, or
+         * the buffer's own headroom for the first chunk */
+        if (lws_write(wsi, (unsigned char *)r->body + LWS_PRE + r->sent, n,
+                      final ? LWS_WRITE_HTTP_FINAL : LWS_WRITE_HTTP) != (int)n)
+            return -1;
+        r->sent += n;
+        if (!final) {
+            lws_callback_on_writable(wsi);
+            return 0;
+        }
+    }
+        free(r->body);
+        r->body = NULL;
+        return lws_http_transaction_completed(wsi) ? -1 : 0;
+    case LWS_CALLBACK_HTTP_DROP_PROTOCOL:
+    case LWS_CALLBACK_CLOSED_HTTP:
+        if (r) {
+            free(r->body);
+            r->body = NULL;
+        }
+        return 0;
+    default:
+        return lws_callback_http_dummy(wsi, reason, user, in, len);
+    }
+}
+
+const struct lws_protocols srv_proto_http = {
+    .name = "meshsteer-http",
+    .callback = callback_http,
+    .per_session_data_size = sizeof(http_req),
+};

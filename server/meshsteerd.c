@@ -1,0 +1,314 @@
+/* meshsteerd.c - the real-time daemon: a marker source drives the model, and every connected
+ * browser receives the synthesised mesh over WebSocket (DESIGN.md, "Threads of the daemon").
+ *
+ * This file wires the parts together and owns the main thread, which runs the libwebsockets
+ * service loop: settings (daemon_config.c), logging (log.c), the pipeline threads (pipeline.c),
+ * the /stream protocol (proto_stream.c), /healthz and /metrics (http.c), the viewer as a file
+ * mount, signals and systemd notification. Signal handlers only set flags (STYLE.md Sec. 7);
+ * a 100 ms lws timer guarantees the loop looks at them. */
+#include "daemon.h"
+#include "log.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <systemd/sd-daemon.h>
+#include <unistd.h>
+
+void openblas_set_num_threads(int num_threads); /* OpenBLAS; the daemon owns its threads */
+
+static volatile sig_atomic_t sig_stop, sig_reload;
+
+static void on_signal(int sig)
+{
+    if (sig == SIGHUP)
+        sig_reload = 1;
+    else
+        sig_stop = 1;
+}
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: meshsteerd --model MODEL --source SPEC [OPTIONS]\n\n"
+            "Streams meshes synthesised from a marker source to WebSocket clients.\n\n"
+            "  -m, --model FILE        trained model (meshsteer train)\n"
+            "  -s, --source SPEC       replay:FILE[?loop=1&speed=1&start=0] (.c3d .trc .bvh .csv)\n"
+            "  -l, --listen ADDR:PORT  default 127.0.0.1:8080 (port 0: any free port)\n"
+            "  -c, --config FILE       'key = value' settings; flags override them\n"
+            "      --record OUT.c3d    also write the incoming markers to a C3D file\n"
+            "      --max-clients N     default 256\n"
+            "      --max-message BYTES largest control message, default 4096\n"
+            "      --idle-timeout S    close clients that accept no frame for S seconds (30)\n"
+            "      --token SECRET      require ?token=SECRET or 'Authorization: Bearer SECRET'\n"
+            "      --origin any|same|LIST  Origin check for /stream (default any)\n"
+            "      --web-root DIR      directory served at / (default: the built viewer)\n"
+            "      --encoding float32|int16  default frame encoding\n"
+            "      --log-level LEVEL   error, warn, notice (default), info, debug\n"
+            "  -v, --verbose           --log-level info (twice: debug)\n"
+            "      --check-config      validate the settings and exit\n"
+            "  -h, --help, --version\n\n"
+            "Signals: SIGINT/SIGTERM stop cleanly; SIGHUP reloads the model.\n"
+            "HTTP: / viewer, /healthz, /metrics, /stream (WebSocket, docs/PROTOCOL.md).\n");
+}
+
+static int is_dir_with_index(const char *dir)
+{
+    char p[SRV_PATH_LEN + 16];
+    struct stat st;
+    snprintf(p, sizeof p, "%s/index.html", dir);
+    return stat(p, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/* --web-root, else the installed viewer, else the source tree's (running from the build dir). */
+static void resolve_web_root(srv_config *c)
+{
+    if (c->web_root[0])
+        return;
+    const char *cands[] = {MESHSTEER_WEB_INSTALLED, MESHSTEER_WEB_SOURCE};
+    for (int i = 0; i < 2; i++)
+        if (is_dir_with_index(cands[i])) {
+            snprintf(c->web_root, sizeof c->web_root, "%s", cands[i]);
+            return;
+        }
+}
+
+static void wake(void *ud)
+{
+    srv_daemon *d = ud;
+    if (d->ctx)
+        lws_cancel_service(d->ctx);
+}
+
+static void tick(lws_sorted_usec_list_t *sul);
+static lws_sorted_usec_list_t tick_sul;
+static struct lws_context *tick_ctx;
+
+static void tick(lws_sorted_usec_list_t *sul)
+{
+    lws_sul_schedule(tick_ctx, 0, sul, tick, 100 * LWS_US_PER_MS);
+}
+
+static int parse_args(int argc, char **argv, srv_config *c, int *check_only)
+{
+    enum { O_RECORD = 256, O_MAXC, O_MAXM, O_IDLE, O_TOKEN, O_ORIGIN, O_WEB, O_ENC, O_LOG, O_CHECK,
+           O_VERSION };
+    static const struct option opts[] = {
+        {"model", required_argument, 0, 'm'},     {"source", required_argument, 0, 's'},
+        {"listen", required_argument, 0, 'l'},    {"config", required_argument, 0, 'c'},
+        {"record", required_argument, 0, O_RECORD}, {"max-clients", required_argument, 0, O_MAXC},
+        {"max-message", required_argument, 0, O_MAXM}, {"idle-timeout", required_argument, 0, O_IDLE},
+        {"token", required_argument, 0, O_TOKEN}, {"origin", required_argument, 0, O_ORIGIN},
+        {"web-root", required_argument, 0, O_WEB}, {"encoding", required_argument, 0, O_ENC},
+        {"log-level", required_argument, 0, O_LOG}, {"verbose", no_argument, 0, 'v'},
+        {"check-config", no_argument, 0, O_CHECK}, {"help", no_argument, 0, 'h'},
+        {"version", no_argument, 0, O_VERSION},   {0, 0, 0, 0},
+    };
+    /* flags override the file: collect them first, read the file, then apply them */
+    const char *keys[64], *vals[64];
+    int nflags = 0, verbose = 0;
+    const char *config = NULL;
+    int o;
+    while ((o = getopt_long(argc, argv, "m:s:l:c:vh", opts, NULL)) != -1) {
+        const char *key = NULL;
+        switch (o) {
+        case 'm': key = "model"; break;
+        case 's': key = "source"; break;
+        case 'l': key = "listen"; break;
+        case 'c': config = optarg; break;
+        case O_RECORD: key = "record"; break;
+        case O_MAXC: key = "max_clients"; break;
+        case O_MAXM: key = "max_message"; break;
+        case O_IDLE: key = "idle_timeout"; break;
+        case O_TOKEN: key = "token"; break;
+        case O_ORIGIN: key = "origin"; break;
+        case O_WEB: key = "web_root"; break;
+        case O_ENC: key = "encoding"; break;
+        case O_LOG: key = "log_level"; break;
+        case 'v': verbose++; break;
+        case O_CHECK: *check_only = 1; break;
+        case 'h': usage(stdout); exit(0);
+        case O_VERSION: printf("meshsteerd %s\n", MESHSTEER_VERSION); exit(0);
+        default: usage(stderr); return 2;
+        }
+        if (key && nflags < 64) {
+            keys[nflags] = key;
+            vals[nflags++] = optarg;
+        }
+    }
+    if (optind < argc) {
+        fprintf(stderr, "meshsteerd: unexpected argument '%s'\n", argv[optind]);
+        return 2;
+    }
+    char err[SRV_ERR_LEN];
+    if (config && srv_config_read(c, config, err)) {
+        fprintf(stderr, "meshsteerd: %s\n", err);
+        return 2;
+    }
+    for (int i = 0; i < nflags; i++)
+        if (srv_config_set(c, keys[i], vals[i], err)) {
+            fprintf(stderr, "meshsteerd: --%s: %s\n", keys[i], err);
+            return 2;
+        }
+    if (verbose)
+        c->log_level = verbose > 1 ? SRV_LOG_DEBUG : (c->log_level > SRV_LOG_INFO ? c->log_level : SRV_LOG_INFO);
+    if (srv_config_validate(c, err)) {
+        fprintf(stderr, "meshsteerd: %s\n", err);
+        return 2;
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    static srv_daemon d; /* large; and the lws context points at it for its lifetime */
+    srv_config_defaults(&d.cfg);
+    int check_only = 0;
+    int rc = parse_args(argc, argv, &d.cfg, &check_only);
+    if (rc)
+        return rc;
+    if (check_only) {
+        printf("meshsteerd: settings are valid\n");
+        return 0;
+    }
+    openblas_set_num_threads(1);
+    srv_log_set_level(d.cfg.log_level);
+    srv_log_hook_lws();
+    srv_metrics_init(&d.metrics);
+    d.t_start_us = srv_now_us();
+    resolve_web_root(&d.cfg);
+    if (!d.cfg.web_root[0])
+        srv_log(SRV_LOG_WARN, "no viewer found (set --web-root); / will answer 404");
+
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL);
+    signal(SIGPIPE, SIG_IGN);
+
+    char err[SRV_ERR_LEN];
+    drv_source *src = NULL;
+    if (drv_source_open(d.cfg.source, &src, err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        return 1;
+    }
+    srv_log(SRV_LOG_NOTICE, "source %s: %d markers at %g fps", d.cfg.source, src->count, src->fps);
+    srv_bundle b;
+    if (srv_pipeline_load(d.cfg.model, src, d.cfg.source, 1, &b, err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        drv_source_close(src);
+        return 1;
+    }
+    srv_log(SRV_LOG_NOTICE, "model %s: '%s', %d vertices, %d faces, %d parts, %d markers",
+            d.cfg.model, b.gen->name, b.gen->nv, b.gen->nf, b.gen->nparts, b.gen->nm);
+    if (srv_pipeline_create(src, d.cfg.source, &b, &d.metrics, d.cfg.record, wake, &d, &d.pipe,
+                            err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        srv_bundle_fini(&b);
+        drv_source_close(src);
+        return 1;
+    }
+
+    static const struct lws_protocol_vhost_options pvo_default = {NULL, NULL, "default", "1"};
+    static const struct lws_protocol_vhost_options pvo = {NULL, &pvo_default, SRV_WS_PROTOCOL, ""};
+    /* every HTTP path is a callback mount bound to srv_proto_http by name (http.c) */
+    const struct lws_protocols protocols[] = {
+        {"http", lws_callback_http_dummy, 0, 0, 0, NULL, 0}, srv_proto_http, srv_proto_stream, {0}};
+    struct lws_http_mount m_metrics = {
+        .mountpoint = "/metrics", .origin = "meshsteer-http", .origin_protocol = LWSMPRO_CALLBACK,
+        .mountpoint_len = 8};
+    struct lws_http_mount m_health = {
+        .mount_next = &m_metrics, .mountpoint = "/healthz", .origin = "meshsteer-http",
+        .origin_protocol = LWSMPRO_CALLBACK, .mountpoint_len = 8};
+    struct lws_http_mount m_root = {
+        .mount_next = &m_health, .mountpoint = "/", .origin = "meshsteer-http",
+        .origin_protocol = LWSMPRO_CALLBACK, .mountpoint_len = 1};
+    struct lws_context_creation_info info;
+    memset(&info, 0, sizeof info);
+    info.port = d.cfg.port; /* 0: any free port, reported below */
+    info.iface = d.cfg.listen_host;
+    info.protocols = protocols;
+    info.pvo = &pvo;
+    info.mounts = &m_root;
+    info.user = &d;
+    info.options = LWS_SERVER_OPTION_VALIDATE_UTF8 |
+                   LWS_SERVER_OPTION_HTTP_HEADERS_SECURITY_BEST_PRACTICES_ENFORCE;
+    info.timeout_secs = 10;
+    info.pt_serv_buf_size = 64 * 1024;
+    d.ctx = lws_create_context(&info);
+    if (!d.ctx) {
+        srv_log(SRV_LOG_ERROR, "cannot listen on %s:%d", d.cfg.listen_host, d.cfg.port);
+        srv_pipeline_destroy(d.pipe);
+        return 1;
+    }
+    int port = lws_get_vhost_listen_port(lws_get_vhost_by_name(d.ctx, "default"));
+    tick_ctx = d.ctx;
+    lws_sul_schedule(d.ctx, 0, &tick_sul, tick, 100 * LWS_US_PER_MS);
+
+    if (srv_pipeline_start(d.pipe, err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        lws_context_destroy(d.ctx);
+        d.ctx = NULL;
+        srv_pipeline_destroy(d.pipe);
+        return 1;
+    }
+    srv_log(SRV_LOG_NOTICE, "listening on http://%s:%d/ (viewer at /, stream at /stream)",
+            d.cfg.listen_host, port);
+    sd_notifyf(0, "READY=1\nSTATUS=serving %s on port %d\nMAINPID=%lu", d.cfg.model, port,
+               (unsigned long)getpid());
+
+    int status = 0;
+    while (!sig_stop) {
+        lws_service(d.ctx, 0);
+        if (sig_reload) {
+            sig_reload = 0;
+            sd_notify(0, "RELOADING=1");
+            int r = srv_pipeline_reload(d.pipe, d.cfg.model);
+            if (r == -EBUSY)
+                srv_log(SRV_LOG_WARN, "SIGHUP: a reload is already running");
+            else if (r)
+                srv_log(SRV_LOG_ERROR, "SIGHUP: cannot start reload: %s", strerror(-r));
+            else
+                srv_log(SRV_LOG_NOTICE, "SIGHUP: reloading %s", d.cfg.model);
+            if (r && r != -EBUSY)
+                sd_notify(0, "READY=1");
+        }
+        int ok;
+        if (srv_pipeline_reload_done(d.pipe, &ok, err)) {
+            if (ok) {
+                srv_metrics_count(&d.metrics.reloads_ok, 1);
+                srv_log(SRV_LOG_NOTICE, "reload of %s succeeded; swapping at the next frame",
+                        d.cfg.model);
+            } else {
+                srv_metrics_count(&d.metrics.reloads_failed, 1);
+                srv_log(SRV_LOG_ERROR, "reload failed, the old model keeps serving: %s", err);
+            }
+            sd_notify(0, "READY=1");
+        }
+    }
+
+    srv_log(SRV_LOG_NOTICE, "stopping: closing %d clients", d.nsessions);
+    sd_notify(0, "STOPPING=1");
+    d.draining = 1;
+    srv_stream_kick_all(&d);
+    uint64_t until = srv_now_us() + 1000000u;
+    while (d.nsessions > 0 && srv_now_us() < until)
+        lws_service(d.ctx, 0);
+    if (srv_pipeline_stop(d.pipe, err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        status = 1;
+    }
+    lws_sul_cancel(&tick_sul);
+    lws_context_destroy(d.ctx);
+    d.ctx = NULL;
+    srv_pipeline_destroy(d.pipe);
+    srv_log(SRV_LOG_NOTICE, "stopped");
+    return status;
+}

@@ -1,0 +1,121 @@
+/* metrics.c - counters and histograms of meshsteerd and their Prometheus text (see metrics.h). */
+#include "metrics.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+/* upper bounds in microseconds */
+static const uint64_t bucket_us[SRV_HIST_BUCKETS] = {100,   250,   500,    1000,   2000,   5000,
+                                                     10000, 20000, 50000, 100000, 250000, 1000000};
+
+static const char *const drop_names[SRV_DROP_COUNT] = {"synth_busy", "synth_failed", "client_slow",
+                                                       "source_error"};
+
+void srv_metrics_init(srv_metrics *m)
+{
+    memset(m, 0, sizeof *m); /* all-zero is a valid state for these lock-free atomics */
+}
+
+void srv_metrics_count(atomic_uint_fast64_t *c, uint64_t n)
+{
+    atomic_fetch_add_explicit(c, n, memory_order_relaxed);
+}
+
+void srv_hist_observe(srv_hist *h, uint64_t us)
+{
+    int b = 0;
+    while (b < SRV_HIST_BUCKETS && us > bucket_us[b])
+        b++;
+    atomic_fetch_add_explicit(&h->count[b], 1, memory_order_relaxed);
+    atomic_fetch_add_explicit(&h->sum_us, us, memory_order_relaxed);
+    atomic_fetch_add_explicit(&h->n, 1, memory_order_relaxed);
+}
+
+typedef struct out {
+    char *buf;
+    size_t cap, len;
+} out;
+
+static void emit(out *o, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void emit(out *o, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int w = vsnprintf(o->len < o->cap ? o->buf + o->len : NULL, o->len < o->cap ? o->cap - o->len : 0,
+                      fmt, ap);
+    va_end(ap);
+    if (w > 0)
+        o->len += (size_t)w;
+}
+
+static uint64_t ld(const atomic_uint_fast64_t *c)
+{
+    return atomic_load_explicit((atomic_uint_fast64_t *)c, memory_order_relaxed);
+}
+
+static void counter(out *o, const char *name, const char *help, uint64_t v)
+{
+    emit(o, "# HELP %s %s\n# TYPE %s counter\n%s %llu\n", name, help, name, name,
+         (unsigned long long)v);
+}
+
+static void hist(out *o, const char *name, const char *help, const srv_hist *h)
+{
+    emit(o, "# HELP %s %s\n# TYPE %s histogram\n", name, help, name);
+    uint64_t cum = 0;
+    for (int b = 0; b < SRV_HIST_BUCKETS; b++) {
+        cum += ld(&h->count[b]);
+        emit(o, "%s_bucket{le=\"%g\"} %llu\n", name, (double)bucket_us[b] * 1e-6,
+             (unsigned long long)cum);
+    }
+    cum += ld(&h->count[SRV_HIST_BUCKETS]);
+    emit(o, "%s_bucket{le=\"+Inf\"} %llu\n", name, (unsigned long long)cum);
+    emit(o, "%s_sum %.6f\n%s_count %llu\n", name, (double)ld(&h->sum_us) * 1e-6, name,
+         (unsigned long long)cum);
+}
+
+size_t srv_metrics_render(const srv_metrics *m, double uptime_s, char *buf, size_t cap)
+{
+    out o = {buf, cap, 0};
+    if (cap)
+        buf[0] = '\0';
+    counter(&o, "meshsteer_frames_in_total", "Marker frames read from the source.", ld(&m->frames_in));
+    counter(&o, "meshsteer_frames_synthesized_total", "Mesh frames synthesised and published.",
+            ld(&m->frames_synth));
+    counter(&o, "meshsteer_frames_out_total", "Frame messages written to clients.",
+            ld(&m->frames_out));
+    counter(&o, "meshsteer_bytes_out_total", "Bytes of WebSocket messages written to clients.",
+            ld(&m->bytes_out));
+    emit(&o, "# HELP meshsteer_drops_total Frames dropped, by reason.\n"
+             "# TYPE meshsteer_drops_total counter\n");
+    for (int d = 0; d < SRV_DROP_COUNT; d++)
+        emit(&o, "meshsteer_drops_total{reason=\"%s\"} %llu\n", drop_names[d],
+             (unsigned long long)ld(&m->drops[d]));
+    emit(&o, "# HELP meshsteer_clients WebSocket clients connected now.\n"
+             "# TYPE meshsteer_clients gauge\nmeshsteer_clients %d\n",
+         atomic_load(&m->clients));
+    counter(&o, "meshsteer_clients_total", "WebSocket clients accepted since start.",
+            ld(&m->clients_total));
+    counter(&o, "meshsteer_clients_rejected_total",
+            "WebSocket connections refused (limit, token, origin).", ld(&m->clients_rejected));
+    counter(&o, "meshsteer_control_messages_total", "Control messages accepted.",
+            ld(&m->control_ok));
+    counter(&o, "meshsteer_control_errors_total", "Control messages answered with an error.",
+            ld(&m->control_errors));
+    counter(&o, "meshsteer_closed_oversize_total", "Connections closed for an oversized message.",
+            ld(&m->closed_oversize));
+    counter(&o, "meshsteer_closed_idle_total", "Connections closed for not accepting frames.",
+            ld(&m->closed_idle));
+    counter(&o, "meshsteer_reloads_total", "Model reloads that succeeded.", ld(&m->reloads_ok));
+    counter(&o, "meshsteer_reloads_failed_total", "Model reloads that failed (old model kept).",
+            ld(&m->reloads_failed));
+    hist(&o, "meshsteer_synthesis_seconds", "Synthesis plus encoding time per frame.", &m->synth);
+    hist(&o, "meshsteer_latency_seconds",
+         "End-to-end latency from marker capture to the frame's send, per client message.",
+         &m->latency);
+    emit(&o, "# HELP meshsteer_uptime_seconds Seconds since start.\n"
+             "# TYPE meshsteer_uptime_seconds gauge\nmeshsteer_uptime_seconds %.3f\n",
+         uptime_s);
+    return o.len;
+}

@@ -1,0 +1,53 @@
+/* metrics.h - the daemon's counters and histograms, updated lock-free from every thread and
+ * rendered as Prometheus text for /metrics (text exposition format 0.0.4).
+ * Histogram buckets are in seconds; each observation costs a few relaxed atomic adds. */
+#ifndef MESHSTEER_SERVER_METRICS_H
+#define MESHSTEER_SERVER_METRICS_H
+
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define SRV_HIST_BUCKETS 12
+
+typedef struct srv_hist {
+    atomic_uint_fast64_t count[SRV_HIST_BUCKETS + 1]; /* last = +Inf */
+    atomic_uint_fast64_t sum_us;
+    atomic_uint_fast64_t n;
+} srv_hist;
+
+/* drop reasons */
+enum {
+    SRV_DROP_SYNTH_BUSY = 0, /* source frames replaced before synthesis took them */
+    SRV_DROP_SYNTH_FAILED,   /* synthesis refused the frame (e.g. no reference yet) */
+    SRV_DROP_CLIENT_SLOW,    /* frames a client skipped (latest-frame-wins) */
+    SRV_DROP_SOURCE_ERROR,   /* source read errors */
+    SRV_DROP_COUNT
+};
+
+typedef struct srv_metrics {
+    atomic_uint_fast64_t frames_in;    /* marker frames from the source */
+    atomic_uint_fast64_t frames_synth; /* mesh frames synthesised and published */
+    atomic_uint_fast64_t frames_out;   /* frame messages written to clients */
+    atomic_uint_fast64_t bytes_out;
+    atomic_uint_fast64_t drops[SRV_DROP_COUNT];
+    atomic_uint_fast64_t clients_total;
+    atomic_uint_fast64_t clients_rejected;
+    atomic_uint_fast64_t control_ok;
+    atomic_uint_fast64_t control_errors;
+    atomic_uint_fast64_t closed_oversize;
+    atomic_uint_fast64_t closed_idle;
+    atomic_uint_fast64_t reloads_ok;
+    atomic_uint_fast64_t reloads_failed;
+    atomic_int clients;
+    srv_hist synth;   /* synthesis + encoding time */
+    srv_hist latency; /* capture -> send, per frame message */
+} srv_metrics;
+
+void srv_metrics_init(srv_metrics *m);
+void srv_hist_observe(srv_hist *h, uint64_t us);
+void srv_metrics_count(atomic_uint_fast64_t *c, uint64_t n);
+/* Renders every metric; returns the length, or the needed length (>= cap) when buf is too small. */
+size_t srv_metrics_render(const srv_metrics *m, double uptime_s, char *buf, size_t cap);
+
+#endif

@@ -1,0 +1,593 @@
+/* pipeline.c - source thread -> synthesis thread -> latest frame (see pipeline.h). */
+#include "pipeline.h"
+#include "daemon_config.h"
+#include "log.h"
+#include "record.h"
+
+#include <errno.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define SLOT_COUNT 2
+#define SOURCE_TIMEOUT_MS 50
+
+typedef struct slot {
+    uint64_t t_capture_us;
+    float *xyz;
+    uint8_t *valid;
+} slot;
+
+typedef struct ctl_entry {
+    uint64_t tag;
+    srv_control c;
+} ctl_entry;
+
+struct srv_pipeline {
+    drv_source *src;
+    srv_metrics *m;
+    void (*wake)(void *);
+    void *wake_ud;
+    srv_recorder *rec;
+    char spec[SRV_PATH_LEN];
+
+    pthread_t source_thread, synth_thread;
+    int started;
+    atomic_int stop;
+    atomic_int src_state;
+    atomic_int reset_synth;
+
+    /* newest marker frames: written by the source thread, taken by the synthesis thread */
+    pthread_mutex_t slot_lock;
+    pthread_cond_t slot_cond;
+    slot slots[SLOT_COUNT];
+    uint64_t written, taken; /* frames written / position up to which they were taken */
+
+    /* publication: under pub */
+    pthread_mutex_t pub;
+    srv_bundle cur;       /* the synthesis thread's bundle; cur.gen is the current generation */
+    srv_bundle pending;   /* offered by a reload, swapped in by the synthesis thread */
+    srv_frame *latest;
+    uint64_t seq;
+
+    /* controls and their results: under ctl_lock */
+    pthread_mutex_t ctl_lock;
+    ctl_entry ctl[SRV_CTL_QUEUE];
+    int nctl;
+    srv_ctl_result res[SRV_CTL_QUEUE];
+    int res_head, nres;
+
+    /* reload */
+    pthread_t reload_thread;
+    atomic_int reload_state; /* 0 idle, 1 running, 2 finished (join pending) */
+    int reload_ok;
+    char reload_err[SRV_ERR_LEN];
+    char reload_path[SRV_PATH_LEN];
+    atomic_uint next_gen;
+};
+
+static int pl_err(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int pl_err(char *err, int code, const char *fmt, ...)
+{
+    if (err) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, SRV_ERR_LEN, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+uint64_t srv_now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+/* ------------------------------------------------------------------ bundles */
+
+void srv_bundle_fini(srv_bundle *b)
+{
+    if (!b)
+        return;
+    mdl_synth_destroy(b->synth);
+    mdl_model_destroy(b->model);
+    srv_gen_unref(b->gen);
+    free(b->V);
+    free(b->mk);
+    free(b->mv);
+    memset(b, 0, sizeof *b);
+}
+
+int srv_pipeline_load(const char *model_path, const drv_source *src, const char *spec, uint32_t id,
+                      srv_bundle *out, char *err)
+{
+    memset(out, 0, sizeof *out);
+    char e[MDL_ERR_LEN] = "";
+    mdl_model *model = NULL;
+    int r = mdl_model_load(model_path, &model, e);
+    if (r)
+        return pl_err(err, r, "model: %s", e);
+    mdl_model_info info;
+    mdl_model_get_info(model, &info);
+    int *map = calloc((size_t)(info.nmarkers > 0 ? info.nmarkers : 1), sizeof *map);
+    if (!map) {
+        mdl_model_destroy(model);
+        return pl_err(err, -ENOMEM, "model %s: out of memory", model_path);
+    }
+    r = mdl_model_bind_markers(model, (const char *const *)src->names, src->count, map);
+    int bound = 0;
+    for (int i = 0; r >= 0 && i < info.nmarkers; i++)
+        bound += map[i] >= 0 && map[i] < src->count;
+    if (r < 0 || bound == 0) {
+        free(map);
+        mdl_model_destroy(model);
+        return pl_err(err, r < 0 ? r : -ENOENT,
+                      "model %s: none of its %d markers is among the source's %d markers "
+                      "(the rig's 'source' names must match the marker labels)",
+                      model_path, info.nmarkers, src->count);
+    }
+    if (bound < info.nmarkers)
+        srv_log(SRV_LOG_WARN, "model %s: %d of %d markers are not in the source; they count as "
+                "missing", model_path, info.nmarkers - bound, info.nmarkers);
+    srv_source_desc desc = {
+        .spec = spec,
+        .scheme = src->ops->scheme,
+        .fps = src->fps,
+        .count = src->count,
+        .names = (const char *const *)src->names,
+        .controllable = src->ops->control != NULL,
+    };
+    out->model = model;
+    r = srv_gen_create(&info, map, &desc, id, &out->gen, e);
+    free(map);
+    if (r) {
+        srv_bundle_fini(out);
+        return pl_err(err, r, "model %s: %s", model_path, e);
+    }
+    r = mdl_synth_create(model, &out->synth, e);
+    if (r) {
+        srv_bundle_fini(out);
+        return pl_err(err, r, "model %s: synthesis: %s", model_path, e);
+    }
+    out->V = calloc((size_t)info.nv * 3, sizeof(float));
+    out->mk = calloc((size_t)(info.nmarkers + 1) * 3, sizeof(float));
+    out->mv = calloc((size_t)info.nmarkers + 1, 1);
+    if (!out->V || !out->mk || !out->mv) {
+        srv_bundle_fini(out);
+        return pl_err(err, -ENOMEM, "model %s: out of memory", model_path);
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ creation */
+
+int srv_pipeline_create(drv_source *src, const char *spec, srv_bundle *b, srv_metrics *m, const char *record,
+                        void (*wake)(void *), void *wake_ud, srv_pipeline **out, char *err)
+{
+    *out = NULL;
+    srv_pipeline *p = calloc(1, sizeof *p);
+    if (!p)
+        return pl_err(err, -ENOMEM, "pipeline: out of memory");
+    p->src = src;
+    snprintf(p->spec, sizeof p->spec, "%s", spec ? spec : "");
+    p->m = m;
+    p->wake = wake;
+    p->wake_ud = wake_ud;
+    pthread_mutex_init(&p->slot_lock, NULL);
+    pthread_cond_init(&p->slot_cond, NULL);
+    pthread_mutex_init(&p->pub, NULL);
+    pthread_mutex_init(&p->ctl_lock, NULL);
+    atomic_init(&p->next_gen, b->gen->id + 1);
+    atomic_init(&p->src_state, src->state);
+    for (int k = 0; k < SLOT_COUNT; k++) {
+        p->slots[k].xyz = calloc((size_t)src->count * 3, sizeof(float));
+        p->slots[k].valid = calloc((size_t)src->count, 1);
+        if (!p->slots[k].xyz || !p->slots[k].valid) {
+            p->src = NULL; /* on failure the caller keeps the source and the bundle */
+            srv_pipeline_destroy(p);
+            return pl_err(err, -ENOMEM, "pipeline: out of memory");
+        }
+    }
+    if (record && *record) {
+        int r = srv_recorder_create(record, src->count, (const char *const *)src->names, src->fps,
+                                    &p->rec, err);
+        if (r) {
+            p->src = NULL;
+            srv_pipeline_destroy(p);
+            return r;
+        }
+    }
+    p->cur = *b;
+    memset(b, 0, sizeof *b);
+    *out = p;
+    return 0;
+}
+
+/* ------------------------------------------------------------------ the source thread */
+
+static void push_result(srv_pipeline *p, uint64_t tag, const char *reply, size_t len)
+{
+    pthread_mutex_lock(&p->ctl_lock);
+    if (p->nres < SRV_CTL_QUEUE) {
+        srv_ctl_result *r = &p->res[(p->res_head + p->nres) % SRV_CTL_QUEUE];
+        r->tag = tag;
+        r->len = len < SRV_REPLY_LEN ? len : SRV_REPLY_LEN - 1;
+        memcpy(r->reply, reply, r->len);
+        r->reply[r->len] = '\0';
+        p->nres++;
+    }
+    pthread_mutex_unlock(&p->ctl_lock);
+}
+
+static void apply_controls(srv_pipeline *p)
+{
+    ctl_entry q[SRV_CTL_QUEUE];
+    pthread_mutex_lock(&p->ctl_lock);
+    int n = p->nctl;
+    memcpy(q, p->ctl, sizeof(ctl_entry) * (size_t)n);
+    p->nctl = 0;
+    pthread_mutex_unlock(&p->ctl_lock);
+    for (int i = 0; i < n; i++) {
+        const srv_control *c = &q[i].c;
+        const char *key = c->kind == SRV_CTL_SEEK ? "seek" : c->kind == SRV_CTL_SPEED ? "speed" : "pause";
+        double v = c->kind == SRV_CTL_PAUSE ? 1 : c->kind == SRV_CTL_RESUME ? 0 : c->value;
+        char e[DRV_ERR_LEN] = "";
+        char reply[SRV_REPLY_LEN];
+        size_t len;
+        int r = drv_source_control(p->src, key, v, e);
+        if (r == 0) {
+            if (c->kind == SRV_CTL_SEEK)
+                atomic_store(&p->reset_synth, 1);
+            len = srv_reply_ack(reply, c);
+            srv_metrics_count(&p->m->control_ok, 1);
+            srv_log(SRV_LOG_INFO, "source control %s %g", key, v);
+        } else {
+            len = srv_reply_error(reply, r == -ENOTSUP ? "unsupported" : "source_error", e, c);
+            srv_metrics_count(&p->m->control_errors, 1);
+            srv_log(SRV_LOG_INFO, "source control %s %g refused: %s", key, v, e);
+        }
+        push_result(p, q[i].tag, reply, len);
+    }
+    if (n)
+        p->wake(p->wake_ud);
+}
+
+static void *source_main(void *arg)
+{
+    srv_pipeline *p = arg;
+    drv_source *s = p->src;
+    float *xyz = calloc((size_t)s->count * 3, sizeof(float));
+    uint8_t *valid = calloc((size_t)s->count, 1);
+    char e[DRV_ERR_LEN];
+    int last_state = -1;
+    while (xyz && valid && !atomic_load(&p->stop)) {
+        apply_controls(p);
+        drv_frame f = {.count = s->count, .xyz = xyz, .valid = valid};
+        int r = drv_source_read(s, &f, SOURCE_TIMEOUT_MS, e);
+        if ((int)s->state != last_state) {
+            last_state = (int)s->state;
+            atomic_store(&p->src_state, last_state);
+            srv_log(SRV_LOG_NOTICE, "source %s", drv_state_name(s->state));
+        }
+        if (r == 0) {
+            srv_metrics_count(&p->m->frames_in, 1);
+            if (p->rec && srv_recorder_add(p->rec, xyz, valid) == -ENOMEM &&
+                srv_recorder_frames(p->rec) > 0 && srv_recorder_frames(p->rec) % 1024 == 0)
+                srv_log(SRV_LOG_WARN, "record: out of memory, recording stopped");
+            pthread_mutex_lock(&p->slot_lock);
+            slot *sl = &p->slots[p->written % SLOT_COUNT];
+            memcpy(sl->xyz, xyz, (size_t)s->count * 3 * sizeof(float));
+            memcpy(sl->valid, valid, (size_t)s->count);
+            sl->t_capture_us = f.t_capture_us;
+            p->written++;
+            pthread_cond_signal(&p->slot_cond);
+            pthread_mutex_unlock(&p->slot_lock);
+        } else if (r == DRV_ETIMEOUT) {
+            continue;
+        } else if (r == DRV_EEOF || r == DRV_ELOST) {
+            struct timespec ts = {0, 50 * 1000000L}; /* wait for a seek (or the end) */
+            nanosleep(&ts, NULL);
+        } else {
+            srv_metrics_count(&p->m->drops[SRV_DROP_SOURCE_ERROR], 1);
+            srv_log(SRV_LOG_WARN, "source: %s", e);
+            struct timespec ts = {0, 100 * 1000000L};
+            nanosleep(&ts, NULL);
+        }
+    }
+    free(xyz);
+    free(valid);
+    return NULL;
+}
+
+/* ------------------------------------------------------------------ the synthesis thread */
+
+static void swap_pending(srv_pipeline *p)
+{
+    srv_bundle old = {0};
+    pthread_mutex_lock(&p->pub);
+    if (p->pending.gen) {
+        old = p->cur;
+        p->cur = p->pending;
+        memset(&p->pending, 0, sizeof p->pending);
+    }
+    pthread_mutex_unlock(&p->pub);
+    if (old.gen) {
+        srv_log(SRV_LOG_NOTICE, "model generation %u (%s, %d vertices) now serving", p->cur.gen->id,
+                p->cur.gen->name, p->cur.gen->nv);
+        srv_bundle_fini(&old); /* frames still held by clients keep their generation alive */
+        p->wake(p->wake_ud);
+    }
+}
+
+static void *synth_main(void *arg)
+{
+    srv_pipeline *p = arg;
+    int count = p->src->count;
+    float *xyz = calloc((size_t)count * 3, sizeof(float));
+    uint8_t *valid = calloc((size_t)count, 1);
+    while (xyz && valid && !atomic_load(&p->stop)) {
+        pthread_mutex_lock(&p->slot_lock);
+        while (p->written == p->taken && !atomic_load(&p->stop)) {
+            struct timespec ts;
+            clock_gettime(CLOCK_REALTIME, &ts);
+            ts.tv_nsec += 100 * 1000000L;
+            if (ts.tv_nsec >= 1000000000L) {
+                ts.tv_sec++;
+                ts.tv_nsec -= 1000000000L;
+            }
+            pthread_cond_timedwait(&p->slot_cond, &p->slot_lock, &ts);
+        }
+        if (atomic_load(&p->stop)) {
+            pthread_mutex_unlock(&p->slot_lock);
+            break;
+        }
+        uint64_t skipped = p->written - p->taken - 1;
+        const slot *sl = &p->slots[(p->written - 1) % SLOT_COUNT];
+        memcpy(xyz, sl->xyz, (size_t)count * 3 * sizeof(float));
+        memcpy(valid, sl->valid, (size_t)count);
+        uint64_t t_capture = sl->t_capture_us;
+        p->taken = p->written;
+        pthread_mutex_unlock(&p->slot_lock);
+        if (skipped)
+            srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_BUSY], skipped);
+
+        swap_pending(p);
+        srv_bundle *b = &p->cur;
+        srv_gen *g = b->gen;
+        if (atomic_exchange(&p->reset_synth, 0))
+            mdl_synth_reset(b->synth);
+        /* source order -> model marker order */
+        for (int i = 0; i < g->nm; i++) {
+            int j = g->map[i];
+            int ok = j >= 0 && j < count && valid[j];
+            b->mv[i] = (uint8_t)ok;
+            for (int a = 0; a < 3; a++)
+                b->mk[i * 3 + a] = ok ? xyz[j * 3 + a] : 0.0f;
+        }
+        uint64_t t0 = srv_now_us();
+        mdl_synth_info si = {0};
+        int r = mdl_synth_frame(b->synth, b->mk, b->mv, b->V, &si);
+        if (r != 0) {
+            srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_FAILED], 1);
+            srv_log(SRV_LOG_DEBUG, "synthesis refused a frame (%d)", r);
+            continue;
+        }
+        srv_frame *f = srv_gen_free_frame(g);
+        if (!f) { /* cannot happen with SRV_POOL >= 3; count it rather than trust it */
+            srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_BUSY], 1);
+            continue;
+        }
+        int flags = (si.reference_lost ? SRV_FLAG_REFERENCE_LOST : 0) |
+                    (si.markers_held ? SRV_FLAG_HELD : 0);
+        uint64_t t1 = srv_now_us();
+        srv_frame_encode(f, p->seq + 1, t_capture, t1, b->V, b->mk, b->mv, flags,
+                         si.markers_missing);
+        uint64_t t2 = srv_now_us();
+        srv_hist_observe(&p->m->synth, t2 - t0);
+        srv_frame_ref(f);
+        pthread_mutex_lock(&p->pub);
+        srv_frame *old = p->latest;
+        p->latest = f;
+        p->seq++;
+        pthread_mutex_unlock(&p->pub);
+        srv_frame_unref(old);
+        srv_metrics_count(&p->m->frames_synth, 1);
+        p->wake(p->wake_ud);
+    }
+    free(xyz);
+    free(valid);
+    return NULL;
+}
+
+/* ------------------------------------------------------------------ control of the threads */
+
+int srv_pipeline_start(srv_pipeline *p, char *err)
+{
+    char e[DRV_ERR_LEN];
+    int r = drv_source_start(p->src, e);
+    if (r)
+        return pl_err(err, r, "source: %s", e);
+    atomic_store(&p->src_state, p->src->state);
+    /* the daemon's main thread takes the signals */
+    sigset_t all, old;
+    sigfillset(&all);
+    pthread_sigmask(SIG_BLOCK, &all, &old);
+    r = pthread_create(&p->synth_thread, NULL, synth_main, p);
+    if (r == 0) {
+        r = pthread_create(&p->source_thread, NULL, source_main, p);
+        if (r) {
+            atomic_store(&p->stop, 1);
+            pthread_join(p->synth_thread, NULL);
+        }
+    }
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    if (r)
+        return pl_err(err, -r, "pipeline: cannot start threads: %s", strerror(r));
+    p->started = 1;
+    return 0;
+}
+
+int srv_pipeline_stop(srv_pipeline *p, char *err)
+{
+    if (!p || !p->started)
+        return 0;
+    atomic_store(&p->stop, 1);
+    pthread_mutex_lock(&p->slot_lock);
+    pthread_cond_broadcast(&p->slot_cond);
+    pthread_mutex_unlock(&p->slot_lock);
+    pthread_join(p->source_thread, NULL);
+    pthread_join(p->synth_thread, NULL);
+    p->started = 0;
+    drv_source_stop(p->src);
+    if (atomic_load(&p->reload_state) != 0) {
+        pthread_join(p->reload_thread, NULL);
+        atomic_store(&p->reload_state, 0);
+    }
+    int r = 0;
+    if (p->rec) {
+        r = srv_recorder_write(p->rec, err);
+        if (r == 0)
+            srv_log(SRV_LOG_NOTICE, "recorded %d frames", srv_recorder_frames(p->rec));
+        srv_recorder_destroy(p->rec);
+        p->rec = NULL;
+    }
+    return r;
+}
+
+void srv_pipeline_destroy(srv_pipeline *p)
+{
+    if (!p)
+        return;
+    srv_pipeline_stop(p, NULL);
+    srv_frame_unref(p->latest);
+    srv_bundle_fini(&p->cur);
+    srv_bundle_fini(&p->pending);
+    srv_recorder_destroy(p->rec);
+    for (int k = 0; k < SLOT_COUNT; k++) {
+        free(p->slots[k].xyz);
+        free(p->slots[k].valid);
+    }
+    pthread_mutex_destroy(&p->slot_lock);
+    pthread_cond_destroy(&p->slot_cond);
+    pthread_mutex_destroy(&p->pub);
+    pthread_mutex_destroy(&p->ctl_lock);
+    drv_source_close(p->src);
+    free(p);
+}
+
+srv_frame *srv_pipeline_latest(srv_pipeline *p)
+{
+    pthread_mutex_lock(&p->pub);
+    srv_frame *f = p->latest;
+    if (f)
+        srv_frame_ref(f);
+    pthread_mutex_unlock(&p->pub);
+    return f;
+}
+
+srv_gen *srv_pipeline_current(srv_pipeline *p)
+{
+    pthread_mutex_lock(&p->pub);
+    srv_gen *g = p->cur.gen;
+    srv_gen_ref(g);
+    pthread_mutex_unlock(&p->pub);
+    return g;
+}
+
+int srv_pipeline_control(srv_pipeline *p, uint64_t tag, const srv_control *c)
+{
+    int r = 0;
+    pthread_mutex_lock(&p->ctl_lock);
+    if (p->nctl == SRV_CTL_QUEUE) {
+        r = -EBUSY;
+    } else {
+        p->ctl[p->nctl].tag = tag;
+        p->ctl[p->nctl].c = *c;
+        p->nctl++;
+    }
+    pthread_mutex_unlock(&p->ctl_lock);
+    return r;
+}
+
+int srv_pipeline_result(srv_pipeline *p, srv_ctl_result *r)
+{
+    int got = 0;
+    pthread_mutex_lock(&p->ctl_lock);
+    if (p->nres > 0) {
+        *r = p->res[p->res_head];
+        p->res_head = (p->res_head + 1) % SRV_CTL_QUEUE;
+        p->nres--;
+        got = 1;
+    }
+    pthread_mutex_unlock(&p->ctl_lock);
+    return got;
+}
+
+/* ------------------------------------------------------------------ reload */
+
+static void *reload_main(void *arg)
+{
+    srv_pipeline *p = arg;
+    srv_bundle b;
+    uint32_t id = atomic_fetch_add(&p->next_gen, 1);
+    int r = srv_pipeline_load(p->reload_path, p->src, p->spec, id, &b,
+                              p->reload_err);
+    if (r == 0) {
+        srv_bundle old;
+        pthread_mutex_lock(&p->pub);
+        old = p->pending;
+        p->pending = b;
+        pthread_mutex_unlock(&p->pub);
+        srv_bundle_fini(&old);
+    }
+    p->reload_ok = r == 0;
+    atomic_store(&p->reload_state, 2);
+    p->wake(p->wake_ud);
+    return NULL;
+}
+
+int srv_pipeline_reload(srv_pipeline *p, const char *model_path)
+{
+    if (atomic_load(&p->reload_state) != 0)
+        return -EBUSY;
+    snprintf(p->reload_path, sizeof p->reload_path, "%s", model_path);
+    p->reload_err[0] = '\0';
+    atomic_store(&p->reload_state, 1);
+    sigset_t all, old;
+    sigfillset(&all);
+    pthread_sigmask(SIG_BLOCK, &all, &old);
+    int r = pthread_create(&p->reload_thread, NULL, reload_main, p);
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    if (r) {
+        atomic_store(&p->reload_state, 0);
+        return -r;
+    }
+    return 0;
+}
+
+int srv_pipeline_reload_done(srv_pipeline *p, int *ok, char *err)
+{
+    if (atomic_load(&p->reload_state) != 2)
+        return 0;
+    pthread_join(p->reload_thread, NULL);
+    *ok = p->reload_ok;
+    if (err)
+        snprintf(err, SRV_ERR_LEN, "%s", p->reload_err);
+    atomic_store(&p->reload_state, 0);
+    return 1;
+}
+
+drv_state srv_pipeline_source_state(srv_pipeline *p)
+{
+    return (drv_state)atomic_load(&p->src_state);
+}
+
+const drv_source *srv_pipeline_source(srv_pipeline *p)
+{
+    return p->src;
+}

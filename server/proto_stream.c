@@ -1,0 +1,360 @@
+/* proto_stream.c - the /stream WebSocket protocol of meshsteerd (docs/PROTOCOL.md).
+ *
+ * Per session: hello (JSON) -> topology (binary) -> frames, newest first: when the session is
+ * writable it gets the latest published frame if it has not had it, so a slow client skips frames
+ * (counted per session and in /metrics) instead of queueing them, and costs at most one frame in
+ * lws's send buffer. One lws_write per WRITEABLE callback, from buffers with LWS_PRE headroom.
+ * The pipeline wakes this thread with lws_cancel_service (EVENT_WAIT_CANCELLED).
+ * Control messages are validated (control.c); replies queue per session (SRV_REPLY_QUEUE); a
+ * message larger than max_message closes that connection with 1009, a client that leaves a frame
+ * unaccepted for idle_timeout seconds is closed by an lws timeout. */
+#include "control.h"
+#include "daemon.h"
+#include "log.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static srv_daemon *daemon_of(struct lws *wsi)
+{
+    return lws_context_user(lws_get_context(wsi));
+}
+
+static int same_secret(const char *a, const char *b)
+{
+    size_t la = strlen(a), lb = strlen(b);
+    unsigned char diff = (unsigned char)(la != lb);
+    for (size_t i = 0; i < la; i++)
+        diff |= (unsigned char)(a[i] ^ b[i % (lb ? lb : 1)]);
+    return diff == 0;
+}
+
+/* 0 to accept the upgrade, 1 to refuse (logged with the reason). */
+static int filter(srv_daemon *d, struct lws *wsi)
+{
+    char buf[1024], host[512];
+    const char *why = NULL;
+    if (lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_GET_URI) <= 0 || strcmp(buf, "/stream"))
+        why = "path is not /stream";
+    else if (d->draining)
+        why = "shutting down";
+    else if (d->nsessions >= d->cfg.max_clients)
+        why = "too many clients";
+    if (!why && d->cfg.token[0]) {
+        const char *t = lws_get_urlarg_by_name(wsi, "token=", buf, sizeof buf);
+        int ok = t && same_secret(t, d->cfg.token);
+        if (!ok && lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_HTTP_AUTHORIZATION) > 0 &&
+            !strncmp(buf, "Bearer ", 7))
+            ok = same_secret(buf + 7, d->cfg.token);
+        if (!ok)
+            why = "missing or wrong token";
+    }
+    if (!why && strcmp(d->cfg.origin, "any")) {
+        int n = lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_ORIGIN);
+        if (n <= 0) {
+            why = "no Origin header";
+        } else if (!strcmp(d->cfg.origin, "same")) {
+            int hn = lws_hdr_copy(wsi, host, sizeof host, WSI_TOKEN_HOST);
+            const char *o = !strncmp(buf, "http://", 7) ? buf + 7 : !strncmp(buf, "https://", 8) ? buf + 8 : NULL;
+            if (hn <= 0 || !o || strcmp(o, host))
+                why = "Origin does not match Host";
+        } else {
+            int ok = 0;
+            char list[sizeof d->cfg.origin];
+            snprintf(list, sizeof list, "%s", d->cfg.origin);
+            for (char *save = NULL, *o = strtok_r(list, ",", &save); o && !ok;
+                 o = strtok_r(NULL, ",", &save)) {
+                while (*o == ' ')
+                    o++;
+                ok = !strcmp(o, buf);
+            }
+            if (!ok)
+                why = "Origin not allowed";
+        }
+    }
+    if (!why)
+        return 0;
+    char peer[128] = "?";
+    lws_get_peer_simple(wsi, peer, sizeof peer);
+    srv_log(SRV_LOG_INFO, "refused /stream connection from %s: %s", peer, why);
+    srv_metrics_count(&d->metrics.clients_rejected, 1);
+    return 1;
+}
+
+static unsigned char *reply_slot(srv_session *s, int k)
+{
+    return (unsigned char *)s->replies + (size_t)k * (LWS_PRE + SRV_REPLY_LEN) + LWS_PRE;
+}
+
+/* Queues a reply; returns -1 when the queue is full (the client sends without reading). */
+static int queue_reply(srv_session *s, const char *txt, size_t len)
+{
+    if (s->nreplies == SRV_REPLY_QUEUE)
+        return -1;
+    int k = (s->reply_head + s->nreplies) % SRV_REPLY_QUEUE;
+    if (len > SRV_REPLY_LEN)
+        len = SRV_REPLY_LEN;
+    memcpy(reply_slot(s, k), txt, len);
+    s->reply_len[k] = len;
+    s->nreplies++;
+    lws_callback_on_writable(s->wsi);
+    return 0;
+}
+
+static int reply_error(srv_daemon *d, srv_session *s, const char *code, const char *msg,
+                       const srv_control *c)
+{
+    char buf[SRV_REPLY_LEN];
+    size_t n = srv_reply_error(buf, code, msg, c);
+    srv_metrics_count(&d->metrics.control_errors, 1);
+    return queue_reply(s, buf, n);
+}
+
+static int handle_message(srv_daemon *d, srv_session *s)
+{
+    if (s->rx_binary)
+        return reply_error(d, s, "binary_not_accepted",
+                           "control messages are JSON text frames; binary frames are not accepted",
+                           NULL);
+    srv_control c;
+    const char *code;
+    char msg[256], buf[SRV_REPLY_LEN];
+    if (srv_control_parse((const char *)s->rx, s->rx_len, &c, &code, msg, sizeof msg))
+        return reply_error(d, s, code, msg, &c);
+    size_t n;
+    switch (c.kind) {
+    case SRV_CTL_ENCODING:
+        s->encoding = c.encoding;
+        srv_metrics_count(&d->metrics.control_ok, 1);
+        n = srv_reply_ack(buf, &c);
+        return queue_reply(s, buf, n);
+    case SRV_CTL_PING:
+        srv_metrics_count(&d->metrics.control_ok, 1);
+        n = srv_reply_pong(buf, &c, srv_now_us());
+        return queue_reply(s, buf, n);
+    default: {
+        const drv_source *src = srv_pipeline_source(d->pipe);
+        if (!src->ops->control)
+            return reply_error(d, s, "unsupported", "this source takes no controls", &c);
+        if (srv_pipeline_control(d->pipe, s->tag, &c))
+            return reply_error(d, s, "busy", "too many controls pending; try again", &c);
+        return 0; /* the reply comes back from the source thread */
+    }
+    }
+}
+
+static int write_frame_or_nothing(srv_daemon *d, srv_session *s, struct lws *wsi)
+{
+    srv_frame *f = srv_pipeline_latest(d->pipe);
+    srv_gen *target = f ? f->gen : NULL;
+    if (!target) { /* nothing synthesised yet: greet with the current generation */
+        srv_gen *cur = srv_pipeline_current(d->pipe);
+        if (s->gen != cur) {
+            srv_gen_unref(s->gen);
+            s->gen = cur;
+            s->stage = 0;
+        } else {
+            srv_gen_unref(cur);
+        }
+    } else if (s->gen != target) {
+        srv_gen_unref(s->gen);
+        srv_gen_ref(target);
+        s->gen = target;
+        s->stage = 0;
+    }
+
+    int r = 0, more = 0;
+    if (s->stage == 0) {
+        r = lws_write(wsi, s->gen->hello, s->gen->hello_len, LWS_WRITE_TEXT);
+        srv_metrics_count(&d->metrics.bytes_out, s->gen->hello_len);
+        s->stage = 1;
+        more = 1;
+    } else if (s->stage == 1) {
+        r = lws_write(wsi, s->gen->topo, s->gen->topo_len, LWS_WRITE_BINARY);
+        srv_metrics_count(&d->metrics.bytes_out, s->gen->topo_len);
+        s->stage = 2;
+        more = 1;
+    } else if (s->nreplies) {
+        int k = s->reply_head;
+        r = lws_write(wsi, reply_slot(s, k), s->reply_len[k], LWS_WRITE_TEXT);
+        srv_metrics_count(&d->metrics.bytes_out, s->reply_len[k]);
+        s->reply_head = (k + 1) % SRV_REPLY_QUEUE;
+        s->nreplies--;
+        more = 1;
+    } else if (f && f->seq > s->last_seq) {
+        unsigned char *m = f->msg[s->encoding];
+        size_t len = f->len[s->encoding];
+        uint64_t skipped = s->last_seq ? f->seq - s->last_seq - 1 : 0;
+        uint64_t now = srv_now_us();
+        srv_put_u32(m + SRV_FRAME_OFF_SKIPPED, (uint32_t)(skipped > UINT32_MAX ? UINT32_MAX : skipped));
+        srv_put_u64(m + SRV_FRAME_OFF_SEND, now);
+        r = lws_write(wsi, m, len, LWS_WRITE_BINARY);
+        s->last_seq = f->seq;
+        s->frames++;
+        s->skipped += skipped;
+        srv_metrics_count(&d->metrics.frames_out, 1);
+        srv_metrics_count(&d->metrics.bytes_out, len);
+        if (skipped)
+            srv_metrics_count(&d->metrics.drops[SRV_DROP_CLIENT_SLOW], skipped);
+        srv_hist_observe(&d->metrics.latency, now > f->t_capture_us ? now - f->t_capture_us : 0);
+        if (s->timeout_armed) {
+            lws_set_timeout(wsi, NO_PENDING_TIMEOUT, 0);
+            s->timeout_armed = 0;
+        }
+    }
+    if (f && f->seq > s->last_seq)
+        more = 1;
+    srv_frame_unref(f);
+    if (r < 0)
+        return -1;
+    if (more || s->nreplies)
+        lws_callback_on_writable(wsi);
+    return 0;
+}
+
+static void wake_sessions(srv_daemon *d)
+{
+    srv_ctl_result res;
+    while (srv_pipeline_result(d->pipe, &res))
+        for (srv_session *s = d->sessions; s; s = s->next)
+            if (s->tag == res.tag && queue_reply(s, res.reply, res.len))
+                lws_set_timeout(s->wsi, PENDING_TIMEOUT_USER_OK, LWS_TO_KILL_ASYNC);
+    srv_frame *f = srv_pipeline_latest(d->pipe);
+    uint64_t now = srv_now_us();
+    for (srv_session *s = d->sessions; s; s = s->next) {
+        if (d->draining || (f && (f->seq > s->last_seq || f->gen != s->gen))) {
+            lws_callback_on_writable(s->wsi);
+            if (!s->timeout_armed && !d->draining) {
+                lws_set_timeout(s->wsi, PENDING_TIMEOUT_USER_OK, d->cfg.idle_timeout);
+                s->timeout_armed = 1;
+                s->armed_at_us = now;
+            }
+        }
+    }
+    srv_frame_unref(f);
+}
+
+void srv_stream_kick_all(srv_daemon *d)
+{
+    wake_sessions(d);
+}
+
+static int callback_stream(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in,
+                           size_t len)
+{
+    srv_daemon *d = daemon_of(wsi);
+    srv_session *s = user;
+    switch (reason) {
+    case LWS_CALLBACK_FILTER_PROTOCOL_CONNECTION:
+        return filter(d, wsi);
+
+    case LWS_CALLBACK_ESTABLISHED: {
+        memset(s, 0, sizeof *s);
+        s->wsi = wsi;
+        s->tag = ++d->next_tag;
+        s->encoding = d->cfg.encoding;
+        s->rx = malloc((size_t)d->cfg.max_message);
+        s->replies = malloc((size_t)SRV_REPLY_QUEUE * (LWS_PRE + SRV_REPLY_LEN));
+        if (!s->rx || !s->replies) {
+            free(s->rx);
+            free(s->replies);
+            s->rx = NULL;
+            s->replies = NULL;
+            return -1;
+        }
+        s->next = d->sessions;
+        d->sessions = s;
+        d->nsessions++;
+        atomic_fetch_add(&d->metrics.clients, 1);
+        srv_metrics_count(&d->metrics.clients_total, 1);
+        char peer[128] = "?";
+        lws_get_peer_simple(wsi, peer, sizeof peer);
+        srv_log(SRV_LOG_INFO, "client %llu connected from %s (%d clients)",
+                (unsigned long long)s->tag, peer, d->nsessions);
+        lws_callback_on_writable(wsi);
+        return 0;
+    }
+
+    case LWS_CALLBACK_CLOSED: {
+        if (!s->wsi)
+            return 0;
+        for (srv_session **pp = &d->sessions; *pp; pp = &(*pp)->next)
+            if (*pp == s) {
+                *pp = s->next;
+                d->nsessions--;
+                atomic_fetch_sub(&d->metrics.clients, 1);
+                break;
+            }
+        if (s->timeout_armed &&
+            srv_now_us() - s->armed_at_us >= (uint64_t)d->cfg.idle_timeout * 1000000u - 500000u) {
+            srv_metrics_count(&d->metrics.closed_idle, 1);
+            srv_log(SRV_LOG_INFO, "client %llu closed: accepted no frame for %d s",
+                    (unsigned long long)s->tag, d->cfg.idle_timeout);
+        }
+        srv_log(SRV_LOG_INFO, "client %llu disconnected after %llu frames (%llu skipped)",
+                (unsigned long long)s->tag, (unsigned long long)s->frames,
+                (unsigned long long)s->skipped);
+        srv_gen_unref(s->gen);
+        free(s->rx);
+        free(s->replies);
+        memset(s, 0, sizeof *s);
+        return 0;
+    }
+
+    case LWS_CALLBACK_RECEIVE: {
+        if (!s->rx)
+            return -1;
+        if (lws_is_first_fragment(wsi)) {
+            s->rx_len = 0;
+            s->rx_binary = lws_frame_is_binary(wsi);
+        }
+        if (s->rx_len + len > (size_t)d->cfg.max_message) {
+            srv_metrics_count(&d->metrics.closed_oversize, 1);
+            srv_log(SRV_LOG_INFO, "client %llu closed: message larger than %d bytes",
+                    (unsigned long long)s->tag, d->cfg.max_message);
+            static const char why[] = "message too large";
+            lws_close_reason(wsi, LWS_CLOSE_STATUS_MESSAGE_TOO_LARGE, (unsigned char *)why,
+                             sizeof why - 1);
+            return -1;
+        }
+        memcpy(s->rx + s->rx_len, in, len);
+        s->rx_len += len;
+        if (lws_is_final_fragment(wsi) && lws_remaining_packet_payload(wsi) == 0) {
+            int r = handle_message(d, s);
+            s->rx_len = 0;
+            if (r) {
+                static const char why[] = "replies not read";
+                lws_close_reason(wsi, LWS_CLOSE_STATUS_POLICY_VIOLATION, (unsigned char *)why,
+                                 sizeof why - 1);
+                return -1;
+            }
+        }
+        return 0;
+    }
+
+    case LWS_CALLBACK_SERVER_WRITEABLE:
+        if (!s->wsi)
+            return 0;
+        if (d->draining) {
+            static const char why[] = "server shutting down";
+            lws_close_reason(wsi, LWS_CLOSE_STATUS_GOINGAWAY, (unsigned char *)why, sizeof why - 1);
+            return -1;
+        }
+        return write_frame_or_nothing(d, s, wsi);
+
+    case LWS_CALLBACK_EVENT_WAIT_CANCELLED:
+        if (d && d->pipe)
+            wake_sessions(d);
+        return 0;
+
+    default:
+        return 0;
+    }
+}
+
+const struct lws_protocols srv_proto_stream = {
+    .name = SRV_WS_PROTOCOL,
+    .callback = callback_stream,
+    .per_session_data_size = sizeof(srv_session),
+    .rx_buffer_size = 4096,
+};

@@ -1,0 +1,32 @@
+/* daemon_harness.h - starting meshsteerd for a test: a fresh directory with a model trained on the
+ * built-in example (make_model), the daemon on an ephemeral port with its log in a file, plain
+ * HTTP GETs, and reading /metrics values. */
+#ifndef MESHSTEER_TESTS_DAEMON_HARNESS_H
+#define MESHSTEER_TESTS_DAEMON_HARNESS_H
+
+#include <stddef.h>
+#include <sys/types.h>
+
+typedef struct harness {
+    char dir[1024];
+    char log[1100];
+    pid_t pid;
+    int port;
+} harness;
+
+/* Makes dir/ with example.msm, model.msm (a copy), corrupt.msm and trot.csv. */
+void harness_fixtures(harness *h, const char *make_model);
+/* Starts meshsteerd with the given extra arguments (NULL-terminated); waits for its port. */
+void harness_start(harness *h, const char *meshsteerd, const char *const *args);
+/* GET path; returns the HTTP status, the body in a malloc'd string. */
+int harness_get(const harness *h, const char *path, char **body);
+/* The value of a /metrics sample (name with labels, exactly as printed); -1 if absent. */
+double harness_metric(const harness *h, const char *sample);
+/* Sends sig and waits up to timeout_ms for exit; returns the exit status, or -1 on timeout. */
+int harness_stop(harness *h, int sig, int timeout_ms);
+void harness_copy(const char *from, const char *to);
+/* 1 when the daemon's log contains needle. */
+int harness_log_has(const harness *h, const char *needle);
+long harness_rss_kb(const harness *h);
+
+#endif

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# run_viewer.sh - end-to-end test of the browser viewer: trains the example model, starts
+# meshsteerd serving clients/web, runs viewer.mjs (playwright-core + Debian's chromium) against it,
+# including a daemon restart on the same port to check that the viewer reconnects by itself.
+# Usage: run_viewer.sh MESHSTEERD MAKE_MODEL SCREENSHOT.png        Exit 77 = skipped.
+set -euo pipefail
+meshsteerd=$1 make_model=$2 shot=$3
+here=$(cd "$(dirname "$0")" && pwd)
+web=${MESHSTEER_SRC:-$here/../../..}/clients/web
+command -v node >/dev/null || { echo "skip: node not installed"; exit 77; }
+[ -x "${CHROMIUM:-/usr/bin/chromium}" ] || { echo "skip: chromium not installed"; exit 77; }
+[ -f "$web/node_modules/three/build/three.module.js" ] && [ -d "$web/node_modules/playwright-core" ] ||
+    { echo "skip: run 'npm ci' in clients/web (scripts/run.sh does)"; exit 77; }
+
+dir=$(mktemp -d "${MESHSTEER_BUILD:-/tmp}/e2e-XXXXXX")
+cleanup() {
+    [ -f "$dir/pid" ] && kill "$(cat "$dir/pid")" 2>/dev/null || true
+    sleep 0.2
+    rm -rf "$dir"
+}
+trap cleanup EXIT
+"$make_model" "$dir" >/dev/null
+
+# start.sh PORT: starts the daemon in the background, waits until it listens, prints the port
+cat >"$dir/start.sh" <<EOS
+#!/usr/bin/env bash
+: >"$dir/log.\$\$"
+"$meshsteerd" --model "$dir/example.msm" --source "replay:$dir/trot.csv?loop=1" \
+    --listen 127.0.0.1:\$1 --web-root "$web" 2>"$dir/log.\$\$" </dev/null >/dev/null &
+echo \$! >"$dir/pid"
+for i in \$(seq 100); do
+    p=\$(sed -n 's|.*listening on http://127.0.0.1:\([0-9]*\)/.*|\1|p' "$dir/log.\$\$")
+    [ -n "\$p" ] && { echo "\$p"; exit 0; }
+    sleep 0.1
+done
+cat "$dir/log.\$\$" >&2
+exit 1
+EOS
+chmod +x "$dir/start.sh"
+port=$("$dir/start.sh" 0)
+# the restart keeps the port, as a systemd restart would
+export MESHSTEER_RESTART_CMD="kill \$(cat '$dir/pid'); sleep 1; '$dir/start.sh' $port >/dev/null"
+export MESHSTEER_WEB_DIR=$web
+node "$here/viewer.mjs" "http://127.0.0.1:$port/" "$shot"

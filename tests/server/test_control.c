@@ -1,0 +1,95 @@
+/* test_control.c - validation of /stream control messages and the replies' JSON. */
+#include "control.h"
+#include "encode.h"
+#include "test.h"
+
+#include <cjson/cJSON.h>
+#include <string.h>
+
+static int parse(const char *txt, srv_control *c, const char **code, char *msg)
+{
+    return srv_control_parse(txt, strlen(txt), c, code, msg, 256);
+}
+
+int main(void)
+{
+    srv_control c;
+    const char *code;
+    char msg[256], buf[SRV_REPLY_LEN];
+
+    ASSERT_OK(parse("{\"type\":\"encoding\",\"encoding\":\"int16\",\"id\":5}", &c, &code, msg), msg);
+    ASSERT_INT_EQ(c.kind, SRV_CTL_ENCODING);
+    ASSERT_INT_EQ(c.encoding, SRV_ENC_INT16);
+    ASSERT(!strcmp(c.id, "5"));
+    ASSERT_OK(parse(" {\"type\":\"seek\",\"frame\":120} \n", &c, &code, msg), msg);
+    ASSERT_INT_EQ(c.kind, SRV_CTL_SEEK);
+    ASSERT_NEAR(c.value, 120, 0);
+    ASSERT_OK(parse("{\"type\":\"speed\",\"speed\":0.5,\"id\":\"x-1\"}", &c, &code, msg), msg);
+    ASSERT_NEAR(c.value, 0.5, 0);
+    ASSERT(!strcmp(c.id, "\"x-1\""));
+    ASSERT_OK(parse("{\"type\":\"pause\"}", &c, &code, msg), msg);
+    ASSERT_INT_EQ(c.kind, SRV_CTL_PAUSE);
+    ASSERT_OK(parse("{\"type\":\"resume\"}", &c, &code, msg), msg);
+    ASSERT_OK(parse("{\"type\":\"ping\",\"id\":1}", &c, &code, msg), msg);
+
+    static const struct { const char *txt, *code, *type; } bad[] = {
+        {"", "malformed", NULL},
+        {"hello", "malformed", NULL},
+        {"[1,2]", "malformed", NULL},
+        {"{\"type\":\"pause\"} x", "malformed", NULL},
+        {"{\"type\":\"pause\"", "malformed", NULL},
+        {"{}", "bad_field", NULL},
+        {"{\"type\":3}", "bad_field", NULL},
+        {"{\"type\":\"dance\"}", "unknown_type", NULL},
+        {"{\"type\":\"pause\",\"now\":true}", "bad_field", "pause"},
+        {"{\"type\":\"encoding\"}", "bad_field", "encoding"},
+        {"{\"type\":\"encoding\",\"encoding\":\"float64\"}", "bad_field", "encoding"},
+        {"{\"type\":\"encoding\",\"encoding\":16}", "bad_field", "encoding"},
+        {"{\"type\":\"seek\",\"frame\":-1}", "bad_field", "seek"},
+        {"{\"type\":\"seek\",\"frame\":1.5}", "bad_field", "seek"},
+        {"{\"type\":\"seek\",\"frame\":\"10\"}", "bad_field", "seek"},
+        {"{\"type\":\"seek\",\"frame\":1e12}", "bad_field", "seek"},
+        {"{\"type\":\"speed\",\"speed\":0}", "bad_field", "speed"},
+        {"{\"type\":\"speed\",\"speed\":101}", "bad_field", "speed"},
+        {"{\"type\":\"ping\",\"id\":{}}", "bad_field", NULL},
+        {"{\"type\":\"ping\",\"id\":\"0123456789012345678901234567890123456789012345678901234567890123456789\"}",
+         "bad_field", NULL},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        code = NULL;
+        int r = parse(bad[i].txt, &c, &code, msg);
+        if (r == 0 || !code || strcmp(code, bad[i].code) ||
+            (bad[i].type && (!c.type || strcmp(c.type, bad[i].type)))) {
+            fprintf(stderr, "case %zu '%s': got %d code %s type %s (%s)\n", i, bad[i].txt, r,
+                    code ? code : "-", c.type ? c.type : "-", msg);
+            return 1;
+        }
+    }
+    /* a NUL byte */
+    ASSERT(srv_control_parse("{\"type\":\"pause\"}\0", 17, &c, &code, msg, sizeof msg) == -1);
+
+    /* replies are valid JSON and echo the id */
+    ASSERT_OK(parse("{\"type\":\"seek\",\"frame\":3,\"id\":\"q\\\"uote\"}", &c, &code, msg), msg);
+    size_t n = srv_reply_ack(buf, &c);
+    cJSON *j = cJSON_ParseWithLength(buf, n);
+    ASSERT(j);
+    ASSERT(!strcmp(cJSON_GetObjectItem(j, "type")->valuestring, "ack"));
+    ASSERT(!strcmp(cJSON_GetObjectItem(j, "request")->valuestring, "seek"));
+    ASSERT(!strcmp(cJSON_GetObjectItem(j, "id")->valuestring, "q\"uote"));
+    cJSON_Delete(j);
+    n = srv_reply_pong(buf, &c, 123456789);
+    j = cJSON_ParseWithLength(buf, n);
+    ASSERT(j && cJSON_GetObjectItem(j, "server_us")->valuedouble == 123456789);
+    cJSON_Delete(j);
+    /* an error reply with a hostile message stays valid JSON and within the buffer */
+    char hostile[300];
+    memset(hostile, '\x01', sizeof hostile - 1);
+    hostile[sizeof hostile - 1] = '\0';
+    n = srv_reply_error(buf, "bad_field", hostile, &c);
+    ASSERT(n < SRV_REPLY_LEN);
+    j = cJSON_ParseWithLength(buf, n);
+    ASSERT(j && !strcmp(cJSON_GetObjectItem(j, "type")->valuestring, "error"));
+    cJSON_Delete(j);
+    printf("ok\n");
+    return 0;
+}
