@@ -65,3 +65,8 @@ int mdl_la_potrs(int n, int nrhs, const double *A, int lda, double *B, int ldb, 
     return check_info("dpotrs",
                       LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'U', n, nrhs, A, lda, B, ldb), err);
 }
+
+void mdl_set_blas_threads(int n)
+{
+    openblas_set_num_threads(n);
+}

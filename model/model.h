@@ -216,21 +216,65 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
 /* Forgets held markers and motion history (seek, new performer). */
 void mdl_synth_reset(mdl_synth *s);
 
-/* ------------------------------------------------------------------ evaluation helpers (eval.c) */
+/* Limits BLAS to n threads (the daemon and the benchmarks own their threads: n = 1). */
+void mdl_set_blas_threads(int n);
 
-/* Error after best rigid alignment (Kabsch): per-vertex distances into `dist` (nv), may be NULL.
+/* ------------------------------------------------------------------ evaluation helpers */
+
+/* Error after best rigid alignment (Kabsch, rigid.c): per-vertex distances into `dist` (nv), may be NULL.
  * Returns the mean distance. */
 double mdl_rigid_aligned_error(const float *A, const float *B, int n, float *dist);
 
-/* A Python-style slice "start:stop[:step]" (also "N" and ":"), resolved against `count`.
+/* Quality against ground truth (eval.c, DESIGN.md "Quality, measured"): drives the model with
+ * virtual markers (the rig vertices of the given ground-truth frames, in order), optionally with
+ * Gaussian noise (standard deviation noise_m per axis, metres) and each marker dropped with
+ * probability drop, and compares every vertex after best rigid alignment, as a fraction of the
+ * rest mesh's bounding-box diagonal. The baseline picks, per frame, the training frame whose rig
+ * markers match the (noisy, surviving) markers best after rigid alignment. */
+typedef struct mdl_eval_opts {
+    double noise_m;
+    double drop;
+    uint64_t seed;
+} mdl_eval_opts;
+
+typedef struct mdl_eval_result {
+    int frames;
+    double mean_err, p95_err, max_err;   /* fractions of the diagonal */
+    double marker_err;                   /* mean error at the rig vertices */
+    double baseline_nn_mean_err, baseline_nn_p95_err;
+    double max_bbox_excess;  /* how far any output vertex left the training box, / diagonal */
+    int nan_count;           /* non-finite output coordinates */
+    int markers_dropped;
+    int frames_skipped;      /* frames the model could not synthesise (no reference yet) */
+    double *synth_us;        /* per frame synthesis time, allocated (frames) */
+    double *frame_err;       /* per frame mean error, allocated (frames) */
+    double *baseline_frame_err;
+} mdl_eval_result;
+
+/* The mesh must have the model's topology (MDL_ETOPOLOGY otherwise). */
+int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, int n,
+                 const mdl_eval_opts *o, mdl_eval_result *r, char *err);
+void mdl_eval_result_fini(mdl_eval_result *r);
+
+/* A Python-style slice (frames.c) "start:stop[:step]" (also "N" and ":"), resolved against `count`.
  * Allocates *idx. */
 int mdl_parse_frames(const char *spec, int count, int **idx, int *n, char *err);
 
-/* The built-in example (example.c): a procedurally generated four-legged creature with bulging
- * limbs, its rig, and a marker recording of a different gait. */
+/* The built-in example (example.c): a procedurally generated four-legged creature (about 4800
+ * vertices, 1.7 m long, Y up, facing +X) with bulging limbs, its rig, and a marker recording of a
+ * different gait. Deterministic: equal arguments give identical bytes.
+ * mdl_example_create: `frames` frames (1..100000) of a walk in place at 30 fps into *seq, and the rig
+ *   into *rig (either may be NULL): markers lf_foot rf_foot lh_foot rh_foot head tail withers croup;
+ *   reference withers-croup; limbs withers-lf_foot, withers-rf_foot, croup-lh_foot, croup-rh_foot,
+ *   withers-head, croup-tail. Free with mdl_meshseq_destroy / mdl_rig_destroy (each array and the
+ *   struct are separately malloc'd).
+ * mdl_example_markers: the rig vertices' positions during a trot of the same creature, `speed` times
+ *   the walk's cycle rate (1 = same rate), with other amplitudes and starting phase: names = the rig's
+ *   source names, fps 30, all valid (struct, P, valid, names and each names[i] separately malloc'd;
+ *   mdl_markers_destroy). *truth (may be NULL) gets the matching ground-truth mesh frames. */
 int mdl_example_create(int frames, mdl_meshseq **seq, mdl_rig **rig, char *err);
-int mdl_example_markers(const mdl_meshseq *seq, const mdl_rig *rig, int frames, double phase_speed,
-                        mdl_markers **out, char *err);
+int mdl_example_markers(const mdl_rig *rig, int frames, double speed, mdl_markers **out,
+                        mdl_meshseq **truth, char *err);
 
 #ifdef __cplusplus
 }

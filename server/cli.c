@@ -114,3 +114,18 @@ void cli_percentiles(double *v, int n, double *median, double *p99)
         k = n - 1;
     *p99 = v[k];
 }
+
+#include "cli_markers.h"
+
+int cli_parse_up(const char *s)
+{
+    static const struct {
+        const char *name;
+        int up;
+    } t[] = {{"auto", MDL_UP_AUTO}, {"x", MDL_UP_X},     {"y", MDL_UP_Y},     {"z", MDL_UP_Z},
+             {"-x", MDL_UP_NEG_X},  {"-y", MDL_UP_NEG_Y}, {"-z", MDL_UP_NEG_Z}};
+    for (size_t i = 0; i < sizeof t / sizeof *t; i++)
+        if (strcasecmp(s, t[i].name) == 0)
+            return t[i].up;
+    return -1;
+}

@@ -8,11 +8,15 @@
 /* model commands (cmd_train.c, cmd_synth.c, cmd_eval.c, cmd_inspect.c, cmd_bench.c) */
 
 /* render and example commands (cmd_render.c, cmd_example.c) */
+int cmd_render(int argc, char **argv);
+int cmd_example(int argc, char **argv);
 
 static const cli_command commands[] = {
     /* model commands */
 
     /* render and example commands */
+    /* {"render", "draw a contact sheet (PNG) of mesh frames", cmd_render}, */
+    /* {"example", "write the built-in example creature, rig and markers", cmd_example}, */
 
     {NULL, NULL, NULL},
 };

@@ -1,0 +1,31 @@
+/* posefeat.h - pose parameters of the marker graph (paper 2012 Sec. 4.1, Table 1).
+ *
+ * Body frame: origin at the first reference marker; axis e1 along the reference edge e_ref;
+ * e2 the up axis (+Y) made orthogonal to e1 (or, with a third reference marker, the normal of the
+ * reference triangle crossed with e1; or +Z when e_ref itself points up); e3 = e1 x e2.
+ * R's columns are (e1, e2, e3): world = R * body + o.
+ *
+ * Features of a limb path p_G = (m_1 .. m_p), all in the body frame:
+ *   for each edge e_j = m_{j+1} - m_j: its unit direction (3) and its length |e_j| (1)   [Table 1]
+ *   alpha_1, the angle between e_ref and e_1                                             [Table 1]
+ *   alpha_j, the angles between successive edges (j > 1)                                 [Table 1]
+ *   the position of m_p relative to the body origin (3)          [ours: eases linear regression]
+ *   optionally d_{m_i}, the unit direction of movement of every marker (3 each)           [Table 1]
+ *     (backward differences m(f) - m(f-1), so that live input needs no future frame)
+ */
+#ifndef MESHSTEER_MODEL_POSEFEAT_H
+#define MESHSTEER_MODEL_POSEFEAT_H
+
+#include "model.h"
+
+/* Body frame from marker positions P (nmarkers x 3). Returns -1 when degenerate. */
+int mdl__body_frame(const float *P, int nref, const int *ref, double R[9], double o[3]);
+
+int mdl__limb_nfeat(int path_len, int use_motion);
+
+/* path: marker indices (path_len). P, Pprev: nmarkers x 3 (Pprev may be NULL). R, o: body frame.
+ * Rprev, oprev: body frame of Pprev (used for motion directions). feat: mdl__limb_nfeat values. */
+void mdl__limb_features(const float *P, const float *Pprev, const int *path, int path_len,
+                        const double R[9], const double o[3], int use_motion, double *feat);
+
+#endif

@@ -1,0 +1,160 @@
+/* cmd_train.c - `meshsteer train`: learn a model from a mesh sequence and a rig (paper 2012 Sec. 4). */
+#include "cli.h"
+#include "cli_markers.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char usage_text[] =
+    "usage: meshsteer train --mesh PATH --rig RIG.json -o MODEL [options]\n"
+    "\n"
+    "Learns the part-based pose and shape model (Voegele et al. 2012) from an example animation.\n"
+    "\n"
+    "  --mesh PATH        a directory of numbered OBJ frames, or a .pc2 point cache (with --rest)\n"
+    "  --rest REST.obj    topology for a .pc2 mesh\n"
+    "  --rig RIG.json     how markers attach to the mesh (docs/FORMATS.md)\n"
+    "  --markers FILE     a marker recording (C3D, TRC, BVH, CSV) to learn from; without it the\n"
+    "                     rig vertices' own trajectories are the markers (virtual markers)\n"
+    "  --frames SPEC      training frames, a Python slice start:stop[:step] (default: all)\n"
+    "  -o, --output MODEL where to write the model\n"
+    "  --report FILE      write a JSON training report\n"
+    "  --name NAME        model name stored in the file (default: the output file name)\n"
+    "  --clusters N       number of near-rigid parts (default: automatic)\n"
+    "  --max-clusters N   upper bound for the automatic choice (default 24)\n"
+    "  --rigid-tol F      automatic clustering target: RMS rigid residual per part as a fraction\n"
+    "                     of the bounding-box diagonal (default 0.004)\n"
+    "  --overlap N        rings of overlap between parts (default 2)\n"
+    "  --explained F      shape variance kept per part (default 0.95)\n"
+    "  --max-modes N      shape modes per part at most (default 6)\n"
+    "  --ridge F          regression regularisation (default: chosen by leave-one-out)\n"
+    "  --beta F           shape prior weight of eq. 7 (default 0.5)\n"
+    "  --iterations N     alternating alignment/shape iterations at synthesis (default 2)\n"
+    "  --motion-dir       include directions of movement in the marker parameters\n" CLI_MARKER_OPTS_HELP;
+
+int cmd_train(int argc, char **argv)
+{
+    const char *cmd = "train", *mesh = NULL, *rest = NULL, *rigp = NULL, *mk = NULL,
+               *frames = NULL, *outp = NULL, *report = NULL, *name = NULL;
+    mdl_train_opts o;
+    mdl_train_opts_default(&o);
+    mdl_marker_opts mo = {0, MDL_UP_AUTO};
+    enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
+           O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP };
+    static const struct option lo[] = {
+        {"mesh", 1, 0, 'm'},          {"rest", 1, 0, O_REST},         {"rig", 1, 0, O_RIG},
+        {"markers", 1, 0, O_MARKERS}, {"frames", 1, 0, O_FRAMES},     {"output", 1, 0, 'o'},
+        {"report", 1, 0, O_REPORT},   {"name", 1, 0, O_NAME},         {"clusters", 1, 0, O_CLUSTERS},
+        {"max-clusters", 1, 0, O_MAXCL}, {"rigid-tol", 1, 0, O_TOL},  {"overlap", 1, 0, O_OVERLAP},
+        {"explained", 1, 0, O_EXPL},  {"max-modes", 1, 0, O_MODES},   {"ridge", 1, 0, O_RIDGE},
+        {"beta", 1, 0, O_BETA},       {"iterations", 1, 0, O_ITER},   {"motion-dir", 0, 0, O_MOTION},
+        {"marker-scale", 1, 0, O_MSCALE}, {"marker-up", 1, 0, O_MUP}, {"help", 0, 0, 'h'},
+        {0, 0, 0, 0}};
+    int c;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "m:o:h", lo, NULL)) != -1) {
+        switch (c) {
+        case 'm': mesh = optarg; break;
+        case O_REST: rest = optarg; break;
+        case O_RIG: rigp = optarg; break;
+        case O_MARKERS: mk = optarg; break;
+        case O_FRAMES: frames = optarg; break;
+        case 'o': outp = optarg; break;
+        case O_REPORT: report = optarg; break;
+        case O_NAME: name = optarg; break;
+        case O_CLUSTERS: if (cli_parse_int(cmd, "--clusters", optarg, &o.clusters)) return CLI_EXIT_USAGE; break;
+        case O_MAXCL: if (cli_parse_int(cmd, "--max-clusters", optarg, &o.max_clusters)) return CLI_EXIT_USAGE; break;
+        case O_TOL: if (cli_parse_double(cmd, "--rigid-tol", optarg, &o.rigid_tol)) return CLI_EXIT_USAGE; break;
+        case O_OVERLAP: if (cli_parse_int(cmd, "--overlap", optarg, &o.overlap_rings)) return CLI_EXIT_USAGE; break;
+        case O_EXPL: if (cli_parse_double(cmd, "--explained", optarg, &o.explained)) return CLI_EXIT_USAGE; break;
+        case O_MODES: if (cli_parse_int(cmd, "--max-modes", optarg, &o.max_modes)) return CLI_EXIT_USAGE; break;
+        case O_RIDGE: if (cli_parse_double(cmd, "--ridge", optarg, &o.ridge)) return CLI_EXIT_USAGE; break;
+        case O_BETA: if (cli_parse_double(cmd, "--beta", optarg, &o.beta)) return CLI_EXIT_USAGE; break;
+        case O_ITER: if (cli_parse_int(cmd, "--iterations", optarg, &o.iterations)) return CLI_EXIT_USAGE; break;
+        case O_MOTION: o.use_motion_dir = 1; break;
+        case O_MSCALE: if (cli_parse_double(cmd, "--marker-scale", optarg, &mo.scale)) return CLI_EXIT_USAGE; break;
+        case O_MUP:
+            if ((mo.up = cli_parse_up(optarg)) < 0)
+                return cli_usage_error(cmd, "--marker-up: '%s' is not one of x y z -x -y -z", optarg);
+            break;
+        case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
+        default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
+        }
+    }
+    if (optind < argc)
+        return cli_usage_error(cmd, "unexpected argument '%s'", argv[optind]);
+    if (!mesh || !rigp || !outp)
+        return cli_usage_error(cmd, "--mesh, --rig and -o are required (see --help)");
+    if (o.clusters < 0 || o.max_clusters < 1 || o.max_clusters > 1000 || !(o.rigid_tol > 0) ||
+        o.overlap_rings < 0 || o.overlap_rings > 10 || !(o.explained > 0 && o.explained <= 1) ||
+        o.max_modes < 0 || o.max_modes > 64 || !(o.beta >= 0) || o.iterations < 0 || o.iterations > 100)
+        return cli_usage_error(cmd, "an option is out of range (see --help)");
+    if (o.ridge != -1 && !(o.ridge >= 0))
+        return cli_usage_error(cmd, "--ridge must be >= 0");
+
+    char err[MDL_ERR_LEN] = "";
+    int status = CLI_EXIT_USAGE;
+    mdl_meshseq *seq = NULL;
+    mdl_rig *rig = NULL;
+    mdl_markers *markers = NULL;
+    mdl_model *model = NULL;
+    int *idx = NULL, n = 0;
+    if (mdl_meshseq_read(mesh, rest, &seq, err)) {
+        cli_fail(cmd, status, "%s", err);
+        goto out;
+    }
+    if (mdl_rig_read(rigp, seq->nv, &rig, err)) {
+        cli_fail(cmd, status, "%s", err);
+        goto out;
+    }
+    if (mk && mdl_markers_read(mk, &mo, &markers, err)) {
+        cli_fail(cmd, status, "%s", err);
+        goto out;
+    }
+    if (mdl_parse_frames(frames ? frames : ":", seq->frames, &idx, &n, err)) {
+        cli_fail(cmd, status, "--frames: %s", err);
+        goto out;
+    }
+    if (!name) {
+        const char *slash = strrchr(outp, '/');
+        name = slash ? slash + 1 : outp;
+    }
+    o.name = name;
+    o.progress = cli_progress;
+    o.progress_ud = (void *)"train";
+    int r = mdl_model_train(seq, idx, n, rig, markers, &o, &model, err);
+    cli_progress_done();
+    if (r) {
+        cli_fail(cmd, r == -ENOMEM || r == MDL_ENUMERIC ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);
+        status = r == -ENOMEM || r == MDL_ENUMERIC ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
+        goto out;
+    }
+    if (mdl_model_save(model, outp, err)) {
+        status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
+        goto out;
+    }
+    if (report) {
+        char *js = mdl_model_report_json(model);
+        FILE *f = js ? fopen(report, "w") : NULL;
+        if (!f || fputs(js, f) < 0 || fclose(f) != 0) {
+            free(js);
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: cannot write the report", report);
+            goto out;
+        }
+        free(js);
+    }
+    mdl_model_info info;
+    mdl_model_get_info(model, &info);
+    fprintf(stderr, "meshsteer train: %s: %d parts from %d frames of %d vertices\n", outp,
+            info.nclusters, n, info.nv);
+    status = CLI_EXIT_OK;
+out:
+    free(idx);
+    mdl_model_destroy(model);
+    mdl_markers_destroy(markers);
+    mdl_rig_destroy(rig);
+    mdl_meshseq_destroy(seq);
+    return status;
+}
