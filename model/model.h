@@ -58,6 +58,9 @@ void mdl_mesh_destroy(mdl_mesh *m);
  * or a .pc2 point cache whose topology comes from `rest_obj` (required for .pc2, ignored otherwise). */
 int mdl_meshseq_read(const char *path, const char *rest_obj, mdl_meshseq **out, char *err);
 void mdl_meshseq_destroy(mdl_meshseq *s);
+/* Writes every frame as DIR/0000.obj, DIR/0001.obj, ... (creating DIR if needed), so that the
+ * directory reads back with mdl_meshseq_read. */
+int mdl_meshseq_write_objdir(const char *dir, const mdl_meshseq *s, char *err);
 
 /* PC2 point cache (little-endian "POINTCACHE2\0", version 1, numPoints, startFrame, sampleRate,
  * numSamples, then samples x points x 3 float32). */
