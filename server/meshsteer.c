@@ -8,6 +8,9 @@
 /* model commands (cmd_train.c, cmd_synth.c, cmd_eval.c, cmd_inspect.c, cmd_bench.c) */
 
 /* render and example commands (cmd_render.c, cmd_example.c) */
+
+/* depth commands (cmd_depth_eval.c) */
+int cmd_depth_eval(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_example(int argc, char **argv);
 
@@ -17,6 +20,9 @@ static const cli_command commands[] = {
     /* render and example commands */
     /* {"render", "draw a contact sheet (PNG) of mesh frames", cmd_render}, */
     /* {"example", "write the built-in example creature, rig and markers", cmd_example}, */
+
+    /* depth commands */
+    {"depth-eval", "score depth->markers on a mesh sequence seen by the test camera", cmd_depth_eval},
 
     {NULL, NULL, NULL},
 };

@@ -66,8 +66,13 @@ typedef struct drv_depth_opts {
     drv_intrinsics k;      /* of the input images */
     int step;              /* grid cell size in pixels (4: 160x120 cells at 640x480) */
     float z_min, z_max;    /* depth gate, metres */
-    float max_jump;        /* neighbouring cells further apart than this (metres, along the
-                              viewing ray) are not connected */
+    float max_jump;        /* geodesic graph: neighbouring cells whose depths differ by less
+                              than this (metres) are joined by their 3D distance ... */
+    float seg_jump;        /* ... those differing by less than this (and by more than max_jump)
+                              belong to the same person (segmentation) and are joined with
+                              jump_penalty metres added: a dress hem in front of the legs, a
+                              hand in front of the body (reached through the arm when shorter) */
+    float jump_penalty;
     int floor;             /* 1: find and remove a floor plane (RANSAC) */
     int floor_iters;       /* RANSAC hypotheses */
     float floor_tol;       /* metres: cells this close to the floor plane (or below) are floor */
@@ -77,6 +82,10 @@ typedef struct drv_depth_opts {
     float min_extent;      /* metres: stop adding extrema once the farthest is this close */
     float tip_radius;      /* metres: a marker is the mean of the cells this close (geodesically)
                               to its extremum */
+    float head_offset;     /* metres: the head marker is pushed this far back along the viewing
+                              ray, from the visible surface to the head's mid-plane (the top of
+                              the head lies there; cf. Shotton et al. 2011, Sec. 3.3, who push
+                              surface proposals back by a learned 39 mm) */
     int smooth;            /* 1: One Euro filter on the output */
     double oe_min_cutoff;  /* One Euro: minimum cutoff frequency (Hz) */
     double oe_beta;        /* One Euro: speed coefficient (s/m) */

@@ -34,7 +34,7 @@ void drv__segment_sample(drv__grid *g, const drv_depth_opts *o, const uint16_t *
 /* RANSAC floor plane over the grid's points (normal within floor_max_tilt of +Y). On success writes
  * plane (n.p + d = 0, n pointing up), clears the cells on or below the floor and returns 1. */
 int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, float plane[4]);
-/* Connected components (8-neighbour, |dz| < max_jump); picks the nearest component whose area is at
+/* Connected components (8-neighbour, |dz| < seg_jump); picks the nearest component whose area is at
  * least min_area and a quarter of the largest one. Fills person/cells/centroid; returns ncells. */
 int drv__segment_person(drv__grid *g, const drv_depth_opts *o);
 

@@ -4,7 +4,9 @@
  * parts from depth images", Sec. III] and [Baak, Mueller, Bharaj, Seidel, Theobalt 2011, "A
  * data-driven approach for real-time full body pose reconstruction from a depth camera", Sec. 4]:
  * on the graph of surface points (here: the person's grid cells, 8-neighbour edges weighted by
- * their 3D distance, edges only between cells whose depths differ by less than max_jump),
+ * their 3D distance, edges only between cells whose depths differ by less than max_jump; steps
+ * up to seg_jump cost jump_penalty extra, so parts seen only across a depth step - legs under a
+ * dress hem - stay reachable without short-cutting a hand in front of the body),
  *   1. d(v) = geodesic distance from the body centroid c (Dijkstra);
  *   2. the farthest point e_k = argmax d(v) is the next extremum;
  *   3. e_k joins the sources with distance 0: d(v) <- min(d(v), dist(e_k, v)); go to 2.
@@ -120,8 +122,8 @@ static int heap_pop(drv__geodesic *ge)
 
 /* Dijkstra from the queued cells; only improvements are expanded. With tip != NULL, sums the
  * positions of cells that end up within `radius` (they are reached from the new source). */
-static void run(drv__geodesic *ge, const drv__grid *g, float jump, float radius, double *tip,
-                int *ntip)
+static void run(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o, float radius,
+                double *tip, int *ntip)
 {
     const int gw = g->gw, gh = g->gh;
     while (ge->hn) {
@@ -145,11 +147,15 @@ static void run(drv__geodesic *ge, const drv__grid *g, float jump, float radius,
                 if (xx < 0 || xx >= gw || (dx == 0 && dy == 0))
                     continue;
                 int v = yy * gw + xx;
-                if (!g->person[v] || fabsf(g->z[v] - zu) >= jump)
+                if (!g->person[v])
+                    continue;
+                float jz = fabsf(g->z[v] - zu);
+                if (jz >= o->seg_jump)
                     continue;
                 const float *pv = g->P + 3 * v;
                 float ex = pv[0] - pu[0], ey = pv[1] - pu[1], ez = pv[2] - pu[2];
-                float nd = du + sqrtf(ex * ex + ey * ey + ez * ez);
+                float nd = du + sqrtf(ex * ex + ey * ey + ez * ez) +
+                           (jz >= o->max_jump ? o->jump_penalty : 0.f);
                 if (nd < ge->dist[v]) {
                     ge->dist[v] = nd;
                     ge->parent[v] = u;
@@ -174,7 +180,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         return 0;
     ge->dist[source] = 0;
     heap_push(ge, source);
-    run(ge, g, o->max_jump, 0, NULL, NULL);
+    run(ge, g, o, 0, NULL, NULL);
     int nex = 0;
     while (nex < max) {
         int e = -1;
@@ -204,7 +210,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         ge->dist[e] = 0;
         ge->parent[e] = -1;
         heap_push(ge, e);
-        run(ge, g, o->max_jump, o->tip_radius, tip, &ntip);
+        run(ge, g, o, o->tip_radius, tip, &ntip);
         for (int i = 0; i < 3; i++)
             x->tip[i] = ntip ? (float)(tip[i] / ntip) : g->P[3 * e + i];
     }

@@ -39,6 +39,8 @@ void drv_depth_opts_default(drv_depth_opts *o)
     o->z_min = 0.4f;
     o->z_max = 4.0f;
     o->max_jump = 0.08f;
+    o->seg_jump = 0.25f;
+    o->jump_penalty = 0.5f;
     o->floor = 1;
     o->floor_iters = 48;
     o->floor_tol = 0.04f;
@@ -47,6 +49,7 @@ void drv_depth_opts_default(drv_depth_opts *o)
     o->max_extrema = 7;
     o->min_extent = 0.12f;
     o->tip_radius = 0.04f;
+    o->head_offset = 0.07f;
     o->smooth = 1;
     o->oe_min_cutoff = 1.5;
     o->oe_beta = 2.0;
@@ -58,7 +61,7 @@ void drv_depth_opts_default(drv_depth_opts *o)
 int drv_depth_tracker_create(const drv_depth_opts *o, drv_depth_tracker **out, char *err)
 {
     *out = NULL;
-    if (!(o->k.fx > 0) || !(o->k.fy > 0) || !(o->z_max > o->z_min) || !(o->max_jump > 0) ||
+    if (!(o->k.fx > 0) || !(o->k.fy > 0) || !(o->z_max > o->z_min) || !(o->max_jump > 0) || o->seg_jump < o->max_jump || o->jump_penalty < 0 ||
         o->max_extrema < 1 || o->max_extrema > DRV_DEPTH_MAX_EXTREMA || !(o->floor_tol > 0) ||
         o->floor_iters < 0 || o->hold_frames < 0 || !(o->oe_min_cutoff > 0) || o->oe_beta < 0 ||
         !(o->oe_dcutoff > 0)) {
@@ -204,7 +207,14 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     for (int l = 0; l < 5; l++) {
         if (label[l] >= 0) {
             r->extremum_label[label[l]] = l;
-            emit(t, l, t->ex[label[l]].tip, t_us, r);
+            float p[3];
+            memcpy(p, t->ex[label[l]].tip, sizeof p);
+            if (l == DRV_DEPTH_HEAD) {
+                float n = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+                for (int a = 0; a < 3 && n > 0; a++)
+                    p[a] *= 1.f + t->o.head_offset / n;
+            }
+            emit(t, l, p, t_us, r);
             r->conf[l] = conf[l];
         } else {
             emit(t, l, NULL, t_us, r);

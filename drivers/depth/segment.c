@@ -9,7 +9,7 @@
  *    with more than 5% of the subset below them are rejected (a floor has nothing below it, a
  *    slice through the body has half of it). The best plane, refined by least squares, is accepted when a quarter of the subset lies on it; cells on or below it are dropped.
  * 3. Person: connected components of the remaining cells (8-neighbour, neighbours connected when
- *    their depths differ by less than max_jump); among the components with at least min_area m^2
+ *    their depths differ by less than seg_jump); among the components with at least min_area m^2
  *    and a quarter of the largest component's area, the nearest (smallest mean depth) is the
  *    person, so a second person standing behind is ignored.
  */
@@ -232,7 +232,7 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
 int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
 {
     const int gw = g->gw, gh = g->gh;
-    const float jump = o->max_jump;
+    const float jump = o->seg_jump;
     const double sx = g->step / o->k.fx, sy = g->step / o->k.fy;
     int ncomp = 0;
     for (int i = 0; i < g->n; i++) {
