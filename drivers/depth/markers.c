@@ -52,7 +52,7 @@ void drv_depth_opts_default(drv_depth_opts *o)
     o->head_offset = 0.07f;
     o->smooth = 1;
     o->oe_min_cutoff = 1.5;
-    o->oe_beta = 2.0;
+    o->oe_beta = 8.0;
     o->oe_dcutoff = 1.0;
     o->hold_frames = 15;
     o->seed = 0x6d657368u;
