@@ -237,8 +237,9 @@ static int fn_open(drv_source *s, const char *arg, char *err)
         if (!strcmp(q + 1, "loop=1"))
             f->loop = 1;
         else if (strcmp(q + 1, "loop=0")) {
+            int r = fail(err, -EINVAL, "fakenect %s: unknown option '%s' (loop=0|1)", f->dir, q + 1);
             fn_free(f);
-            return fail(err, -EINVAL, "fakenect %s: unknown option '%s' (loop=0|1)", f->dir, q + 1);
+            return r;
         }
     }
     char path[4200];
@@ -308,8 +309,9 @@ static int fn_open(drv_source *s, const char *arg, char *err)
     drv_depth_opts o;
     drv_depth_opts_default(&o);
     if (!f->buf || !f->mm) {
+        r = fail(err, -ENOMEM, "fakenect %s: out of memory", f->dir);
         fn_free(f);
-        return fail(err, -ENOMEM, "fakenect %s: out of memory", f->dir);
+        return r;
     }
     if ((r = drv_depth_tracker_create(&o, &f->trk, err))) {
         fn_free(f);
