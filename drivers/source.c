@@ -18,12 +18,13 @@
 extern const drv_source_ops drv_replay_ops;
 
 /* depth cameras and depth->markers (depth/) */
+extern const drv_source_ops drv_fakenect_ops;
 
 static const drv_source_ops *const registry[] = {
     /* replay of marker files */
     &drv_replay_ops,
     /* depth cameras and depth->markers */
-
+    &drv_fakenect_ops,
     NULL,
 };
 

@@ -14,6 +14,9 @@ int cmd_bench(int argc, char **argv);
 int cmd_demo(int argc, char **argv);
 
 /* render and example commands (cmd_render.c, cmd_example.c) */
+
+/* depth commands (cmd_depth_eval.c) */
+int cmd_depth_eval(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_example(int argc, char **argv);
 
@@ -29,6 +32,9 @@ static const cli_command commands[] = {
     /* render and example commands */
     {"render", "draw a contact sheet (PNG) of mesh frames", cmd_render},
     {"example", "write the built-in example creature, rig and markers", cmd_example},
+
+    /* depth commands */
+    {"depth-eval", "score depth->markers on a mesh sequence seen by the test camera", cmd_depth_eval},
 
     {NULL, NULL, NULL},
 };

@@ -1,0 +1,137 @@
+/* depth.h - markers from depth images (pure C, no device), and the test camera.
+ *
+ * Pipeline per frame (drv_depth_tracker_process, markers.c):
+ *   segment.c   foreground: depth gate, RANSAC floor plane removal, connected components on a
+ *               downsampled grid, the nearest person-sized component;
+ *   geodesic.c  accumulative geodesic extrema (Plagemann et al. 2010, Baak et al. 2011): Dijkstra
+ *               from the body centroid, the farthest point becomes a new zero-distance source, repeat;
+ *   label.c     head / lhand / rhand / lfoot / rfoot by a cost assignment that includes the previous
+ *               frame's markers (temporal consistency), with a confidence per marker;
+ *   one_euro.c  One Euro filter (Casiez et al. 2012) per marker coordinate.
+ * Output frame: the camera's, in metres, Y up: X to the image's right, Y up, Z towards the viewer
+ * (the camera looks along -Z). A person facing the camera has their left hand at +X.
+ *
+ * The test camera (render.c) rasterises a mesh into Kinect-v1-like depth (disparity quantisation,
+ * noise, projector shadows at silhouettes, a floor) and maps world points into that same frame.
+ *
+ * Memory: everything is allocated at create; process/render calls allocate nothing.
+ */
+#ifndef MESHSTEER_DRIVERS_DEPTH_H
+#define MESHSTEER_DRIVERS_DEPTH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "drivers.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+
+/* ------------------------------------------------------------------ camera intrinsics (intrinsics.c) */
+
+/* Pinhole intrinsics in pixels; pixel (u, v) has its centre at integer coordinates. */
+typedef struct drv_intrinsics {
+    int width, height;
+    double fx, fy, cx, cy;
+} drv_intrinsics;
+
+/* Kinect v1 depth camera at 640x480: fx = fy = 580, cx = 319.5, cy = 239.5. Published calibrations
+ * of single units range over fx 580..594 (e.g. N. Burrus: fx 594.2, fy 591.0, cx 339.3, cy 242.7);
+ * pass your own through drv_depth_opts.k / drv_render_opts.k to override. */
+void drv_intrinsics_kinect1(drv_intrinsics *k);
+
+/* Back-projects pixel (u, v) with depth z (metres along the optical axis) into the Y-up camera
+ * frame: X = (u - cx) z / fx, Y = -(v - cy) z / fy, Z = -z. */
+void drv_intrinsics_unproject(const drv_intrinsics *k, double u, double v, double z, float p[3]);
+/* Projects a Y-up camera-frame point; returns 0 when it is in front of the camera. */
+int drv_intrinsics_project(const drv_intrinsics *k, const float p[3], double *u, double *v);
+
+/* Kinect v1 raw 11-bit disparity <-> metres (the widely used fit z = 1 / (3.3309495 - 0.0030711 d),
+ * d in 0..2046, 2047 = no reading). */
+double drv_kinect1_disparity_to_m(double d);
+double drv_kinect1_m_to_disparity(double z);
+
+/* ------------------------------------------------------------------ marker labels */
+
+enum { DRV_DEPTH_HEAD = 0, DRV_DEPTH_LHAND, DRV_DEPTH_RHAND, DRV_DEPTH_LFOOT, DRV_DEPTH_RFOOT,
+       DRV_DEPTH_TORSO, DRV_DEPTH_NLABELS };
+/* "head", "lhand", "rhand", "lfoot", "rfoot", "torso" */
+extern const char *const drv_depth_label_names[DRV_DEPTH_NLABELS];
+
+/* ------------------------------------------------------------------ options */
+
+typedef struct drv_depth_opts {
+    drv_intrinsics k;      /* of the input images */
+    int step;              /* grid cell size in pixels (4: 160x120 cells at 640x480) */
+    float z_min, z_max;    /* depth gate, metres */
+    float max_jump;        /* geodesic graph: neighbouring cells whose depths differ by less
+                              than this (metres) are joined by their 3D distance ... */
+    float seg_jump;        /* ... those differing by less than this (and by more than max_jump)
+                              belong to the same person (segmentation) and are joined with
+                              jump_penalty metres added: a dress hem in front of the legs, a
+                              hand in front of the body (reached through the arm when shorter) */
+    float jump_penalty;
+    int floor;             /* 1: find and remove a floor plane (RANSAC) */
+    int floor_iters;       /* RANSAC hypotheses */
+    float floor_tol;       /* metres: cells this close to the floor plane (or below) are floor */
+    float floor_max_tilt;  /* degrees between the floor normal and the camera's up axis */
+    float min_area;        /* m^2: smallest component taken for a person */
+    int max_extrema;       /* accumulative geodesic extrema per frame */
+    float min_extent;      /* metres: stop adding extrema once the farthest is this close */
+    float tip_radius;      /* metres: a marker is the mean of the cells this close (geodesically)
+                              to its extremum */
+    float head_offset;     /* metres: the head marker is pushed this far back along the viewing
+                              ray, from the visible surface to the head's mid-plane (the top of
+                              the head lies there; cf. Shotton et al. 2011, Sec. 3.3, who push
+                              surface proposals back by a learned 39 mm) */
+    int smooth;            /* 1: One Euro filter on the output */
+    double oe_min_cutoff;  /* One Euro: minimum cutoff frequency (Hz) */
+    double oe_beta;        /* One Euro: speed coefficient (s/m) */
+    double oe_dcutoff;     /* One Euro: cutoff for the derivative (Hz) */
+    int hold_frames;       /* frames a lost marker keeps its last position (reported invalid) */
+    uint64_t seed;         /* RANSAC random seed (results are deterministic per seed) */
+} drv_depth_opts;
+
+void drv_depth_opts_default(drv_depth_opts *o);
+
+/* ------------------------------------------------------------------ the tracker (markers.c) */
+
+#define DRV_DEPTH_MAX_EXTREMA 12
+
+typedef struct drv_depth_result {
+    float xyz[DRV_DEPTH_NLABELS][3];  /* metres, Y-up camera frame (smoothed when opts.smooth) */
+    float raw[DRV_DEPTH_NLABELS][3];  /* this frame's unsmoothed measurement */
+    uint8_t valid[DRV_DEPTH_NLABELS]; /* 1 when found in this frame */
+    float conf[DRV_DEPTH_NLABELS];    /* 0..1 */
+    int nextrema;                     /* accumulative geodesic extrema found */
+    float extrema[DRV_DEPTH_MAX_EXTREMA][3];
+    float geodesic[DRV_DEPTH_MAX_EXTREMA]; /* metres from the sources at the time it was found */
+    int extremum_label[DRV_DEPTH_MAX_EXTREMA]; /* DRV_DEPTH_* or -1 */
+    int extremum_px[DRV_DEPTH_MAX_EXTREMA][2]; /* pixel (u, v) */
+    int person_cells;                 /* grid cells of the tracked person, 0 = nobody */
+    float person_depth;               /* mean depth of the person (metres along the axis) */
+    int floor_found;
+    float floor[4];                   /* n.p + d = 0, n unit, Y-up camera frame, n up */
+} drv_depth_result;
+
+typedef struct drv_depth_tracker drv_depth_tracker;
+
+int drv_depth_tracker_create(const drv_depth_opts *o, drv_depth_tracker **out, char *err);
+void drv_depth_tracker_destroy(drv_depth_tracker *t);
+/* One depth image, width x height of opts.k, millimetres (0 = no reading); t_us is its capture
+ * time (microseconds, any epoch, increasing). Fills *r; allocates nothing. */
+int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, uint64_t t_us,
+                              drv_depth_result *r);
+/* Forgets the previous frames (new performer, seek). */
+void drv_depth_tracker_reset(drv_depth_tracker *t);
+/* Grid view for debugging and overlays: cell size, dimensions and the person mask (gw x gh, 1 =
+ * person) of the last processed frame. */
+void drv_depth_tracker_grid(const drv_depth_tracker *t, int *step, int *gw, int *gh,
+                            const uint8_t **person);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,97 @@
+/* depth_internal.h - the stages of depth -> markers, shared inside drivers/depth/ and by its tests.
+ * Each stage lives in its own file (segment.c, geodesic.c, label.c, one_euro.c); markers.c chains
+ * them. All arrays are sized once by drv__grid_init / drv__geodesic_init. */
+#ifndef MESHSTEER_DRIVERS_DEPTH_INTERNAL_H
+#define MESHSTEER_DRIVERS_DEPTH_INTERNAL_H
+
+#include "depth.h"
+
+/* ------------------------------------------------------------------ the downsampled grid (segment.c) */
+
+typedef struct drv__grid {
+    int gw, gh, n, step;
+    float *P;        /* n x 3: the cell's sample point, Y-up camera frame, metres */
+    float *z;        /* n: depth along the axis (metres); 0 = no reading or gated out */
+    uint16_t *px;    /* n x 2: pixel (u, v) the sample came from */
+    int32_t *comp;   /* n: connected component id, -1 = background */
+    uint8_t *person; /* n: 1 = the tracked person */
+    int *stack;      /* n: flood-fill scratch */
+    int *cells;      /* n: the person's cells, ncells of them */
+    int ncells;
+    float *c_area;   /* n: per component: area (m^2), */
+    float *c_sumz;   /*    sum of depths, */
+    int *c_count;    /*    cells */
+    float centroid[3]; /* mean of the person's cells */
+    float mean_z;
+} drv__grid;
+
+int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err);
+void drv__grid_fini(drv__grid *g);
+
+/* Samples the depth image into the grid: per cell the nearest valid reading among four probes,
+ * gated to [z_min, z_max]. */
+void drv__segment_sample(drv__grid *g, const drv_depth_opts *o, const uint16_t *depth_mm);
+/* RANSAC floor plane over the grid's points (normal within floor_max_tilt of +Y). On success writes
+ * plane (n.p + d = 0, n pointing up), clears the cells on or below the floor and returns 1. */
+int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, float plane[4]);
+/* Connected components (8-neighbour, |dz| < seg_jump); picks the nearest component whose area is at
+ * least min_area and a quarter of the largest one. Fills person/cells/centroid; returns ncells. */
+int drv__segment_person(drv__grid *g, const drv_depth_opts *o);
+
+/* xorshift64* in [0, 1) */
+double drv__rand01(uint64_t *s);
+
+/* ------------------------------------------------------------------ geodesic extrema (geodesic.c) */
+
+typedef struct drv__extremum {
+    int cell;
+    float geodesic;   /* metres from the nearest earlier source when found */
+    float tip[3];     /* mean of the cells within tip_radius of it */
+    float anchor[3];  /* the point half-way back along its shortest path (limb root side) */
+    int border;       /* 1 when within 2.5% of the image border (likely a cut, not an extremity) */
+} drv__extremum;
+
+typedef struct drv__geodesic {
+    int n;
+    float *dist;   /* n */
+    int *parent;   /* n */
+    int *heap;     /* n: binary min-heap of cells */
+    int *pos;      /* n: position of a cell in the heap, -1 = not queued */
+    int hn;
+} drv__geodesic;
+
+int drv__geodesic_init(drv__geodesic *ge, int n, char *err);
+void drv__geodesic_fini(drv__geodesic *ge);
+/* Accumulative geodesic extrema on the person's cells of g, starting from `source` (a person cell).
+ * Returns the number found (<= max), in the order found. */
+int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,
+                          int source, drv__extremum *ex, int max);
+
+/* ------------------------------------------------------------------ labelling (label.c) */
+
+typedef struct drv__label_prev {
+    float p[5][3];     /* head, lhand, rhand, lfoot, rfoot, as last output */
+    uint8_t valid[5];
+} drv__label_prev;
+
+/* Assigns extrema to head/lhand/rhand/lfoot/rfoot. `up` and `right` are unit vectors of the body
+ * frame (camera frame Y-up; right = the camera's +X, i.e. the left side of a person facing the
+ * camera). label[i] receives the extremum index per label or -1; conf[i] in 0..1. */
+void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
+                       const float right[3], const drv__label_prev *prev, int label[5],
+                       float conf[5]);
+
+/* ------------------------------------------------------------------ One Euro filter (one_euro.c) */
+
+typedef struct drv_one_euro {
+    double min_cutoff, beta, dcutoff;
+    int init;
+    double x, dx;     /* filtered value and derivative */
+    uint64_t t_us;    /* time of the last sample */
+} drv_one_euro;
+
+void drv_one_euro_init(drv_one_euro *f, double min_cutoff, double beta, double dcutoff);
+void drv_one_euro_reset(drv_one_euro *f);
+double drv_one_euro_filter(drv_one_euro *f, double x, uint64_t t_us);
+
+#endif

@@ -1,0 +1,116 @@
+/* label.c - which geodesic extremum is the head, which a hand or foot, and which side.
+ *
+ * Each extremum e (tip position t, anchor a half-way back along its geodesic path, geodesic length
+ * g) is described in the body frame at the centroid c: height h = (t - c).up, lateral offsets
+ * l = (t - c).right and l_a = (a - c).right. `right` is the camera's +X, which is the left side of a
+ * person facing the camera. Costs (metres scaled to "units"; lower is better):
+ *   head : |l_a|/0.08 + |l|/0.15 + max(0, 0.3 - h)/0.1 + max(0, g - 1.0)/0.1   (h > 0.1, not on the border)
+ *   hand : max(0, -s l_a)/0.04 + max(0, -0.6 - h)/0.1 + max(0, 0.4 - g)/0.1   (s = +1 left, -1 right)
+ *   foot : max(0, -s l_a)/0.04 + max(0, h + 0.75)/0.1 + max(0, 0.7 - g)/0.1  (h < -0.55, not on the border)
+ *   An extremum touching the image border is a cut through the body, not an extremity: it can
+ *   not be the head or a foot, and costs 2 more as a hand (a hand partly out of view);
+ *   + temporal term min(|t - p_prev|/0.1, 3) - 1 when the label had a position last frame,
+ * and leaving a label empty costs MISS. The assignment (each extremum used at most once) with the
+ * least total cost is found exhaustively (at most 6^5 branches, pruned by the best total so far).
+ * The confidence of a label is 1 - cost/MISS, clamped to [0, 1]. */
+#include "depth_internal.h"
+
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#define MISS 2.5f
+#define NL 5
+#define MAXE DRV_DEPTH_MAX_EXTREMA
+
+static float dot3(const float *a, const float *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static float pos(float x)
+{
+    return x > 0 ? x : 0;
+}
+
+typedef struct search {
+    float cost[NL][MAXE];
+    int nex;
+    int cur[NL], best[NL];
+    float best_total;
+    unsigned used;
+} search;
+
+static void dfs(search *s, int l, float total)
+{
+    if (total >= s->best_total)
+        return;
+    if (l == NL) {
+        s->best_total = total;
+        memcpy(s->best, s->cur, sizeof s->best);
+        return;
+    }
+    for (int e = 0; e < s->nex; e++) {
+        if ((s->used >> e) & 1u || s->cost[l][e] >= MISS)
+            continue;
+        s->used |= 1u << e;
+        s->cur[l] = e;
+        dfs(s, l + 1, total + s->cost[l][e]);
+        s->used &= ~(1u << e);
+    }
+    s->cur[l] = -1;
+    dfs(s, l + 1, total + MISS);
+}
+
+void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
+                       const float right[3], const drv__label_prev *prev, int label[5],
+                       float conf[5])
+{
+    search s;
+    s.nex = nex < MAXE ? nex : MAXE;
+    for (int e = 0; e < s.nex; e++) {
+        const drv__extremum *x = &ex[e];
+        float r[3] = {x->tip[0] - centroid[0], x->tip[1] - centroid[1], x->tip[2] - centroid[2]};
+        float ra[3] = {x->anchor[0] - centroid[0], x->anchor[1] - centroid[1],
+                       x->anchor[2] - centroid[2]};
+        float h = dot3(r, up), l = dot3(r, right), la = dot3(ra, right), g = x->geodesic;
+        float b = x->border ? 2.f : 0.f;
+        s.cost[0][e] = h > 0.1f && !x->border ? fabsf(la) / 0.08f + fabsf(l) / 0.15f + pos(0.3f - h) / 0.1f +
+                                      pos(g - 1.0f) / 0.1f + b
+                                : FLT_MAX;
+        for (int side = 0; side < 2; side++) {
+            float sg = side == 0 ? 1.f : -1.f;
+            s.cost[1 + side][e] =
+                pos(-sg * la) / 0.04f + pos(-0.6f - h) / 0.1f + pos(0.4f - g) / 0.1f + b;
+            s.cost[3 + side][e] = h < -0.55f && !x->border
+                                      ? pos(-sg * la) / 0.04f + pos(h + 0.75f) / 0.1f +
+                                            pos(0.7f - g) / 0.1f
+                                      : FLT_MAX;
+        }
+        if (prev) {
+            for (int k = 0; k < NL; k++) {
+                if (!prev->valid[k] || s.cost[k][e] == FLT_MAX)
+                    continue;
+                float d[3] = {x->tip[0] - prev->p[k][0], x->tip[1] - prev->p[k][1],
+                              x->tip[2] - prev->p[k][2]};
+                float dist = sqrtf(dot3(d, d));
+                s.cost[k][e] += fminf(dist / 0.1f, 3.f) - 1.f;
+                if (s.cost[k][e] < 0)
+                    s.cost[k][e] = 0;
+            }
+        }
+    }
+    s.used = 0;
+    s.best_total = FLT_MAX;
+    for (int k = 0; k < NL; k++)
+        s.cur[k] = s.best[k] = -1;
+    dfs(&s, 0, 0.f);
+    for (int k = 0; k < NL; k++) {
+        label[k] = s.best[k];
+        conf[k] = 0;
+        if (label[k] >= 0) {
+            float c = 1.f - s.cost[k][label[k]] / MISS;
+            conf[k] = c < 0 ? 0 : c > 1 ? 1 : c;
+        }
+    }
+}

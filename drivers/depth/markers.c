@@ -1,0 +1,226 @@
+/* markers.c - the depth -> markers tracker: chains segmentation (segment.c), accumulative geodesic
+ * extrema (geodesic.c), labelling with temporal consistency (label.c) and One Euro smoothing
+ * (one_euro.c). See depth.h for the frames and units.
+ *
+ * Per frame: sample + gate -> floor plane -> nearest person -> geodesic source = the person's cell
+ * nearest to its 3D centroid -> up to max_extrema extrema -> labels (body frame: up = the floor
+ * normal when a floor was found, else the camera's +Y; right = the camera's +X made orthogonal to
+ * up) -> per-label filter. A label not found keeps its last output for hold_frames frames (reported
+ * invalid) so that it can be re-associated; after that its filter restarts. The torso marker is the
+ * person's centroid. */
+#include "depth_internal.h"
+
+#include <errno.h>
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+const char *const drv_depth_label_names[DRV_DEPTH_NLABELS] = {"head",  "lhand", "rhand",
+                                                              "lfoot", "rfoot", "torso"};
+
+struct drv_depth_tracker {
+    drv_depth_opts o;
+    drv__grid g;
+    drv__geodesic ge;
+    uint64_t rng;
+    drv__extremum ex[DRV_DEPTH_MAX_EXTREMA];
+    drv_one_euro f[DRV_DEPTH_NLABELS][3];
+    float out[DRV_DEPTH_NLABELS][3]; /* last output */
+    int missed[DRV_DEPTH_NLABELS];   /* frames since last found; > hold_frames = unknown */
+};
+
+void drv_depth_opts_default(drv_depth_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    drv_intrinsics_kinect1(&o->k);
+    o->step = 4;
+    o->z_min = 0.4f;
+    o->z_max = 4.0f;
+    o->max_jump = 0.08f;
+    o->seg_jump = 0.25f;
+    o->jump_penalty = 0.5f;
+    o->floor = 1;
+    o->floor_iters = 48;
+    o->floor_tol = 0.04f;
+    o->floor_max_tilt = 35.f;
+    o->min_area = 0.04f;
+    o->max_extrema = 7;
+    o->min_extent = 0.12f;
+    o->tip_radius = 0.04f;
+    o->head_offset = 0.07f;
+    o->smooth = 1;
+    o->oe_min_cutoff = 1.5;
+    o->oe_beta = 8.0;
+    o->oe_dcutoff = 1.0;
+    o->hold_frames = 15;
+    o->seed = 0x6d657368u;
+}
+
+int drv_depth_tracker_create(const drv_depth_opts *o, drv_depth_tracker **out, char *err)
+{
+    *out = NULL;
+    if (!(o->k.fx > 0) || !(o->k.fy > 0) || !(o->z_max > o->z_min) || !(o->max_jump > 0) || o->seg_jump < o->max_jump || o->jump_penalty < 0 ||
+        o->max_extrema < 1 || o->max_extrema > DRV_DEPTH_MAX_EXTREMA || !(o->floor_tol > 0) ||
+        o->floor_iters < 0 || o->hold_frames < 0 || !(o->oe_min_cutoff > 0) || o->oe_beta < 0 ||
+        !(o->oe_dcutoff > 0)) {
+        if (err)
+            snprintf(err, DRV_ERR_LEN,
+                     "depth tracker: bad options (fx %g, fy %g, depth gate %g..%g m, max_jump %g, "
+                     "max_extrema %d of at most %d)",
+                     o->k.fx, o->k.fy, o->z_min, o->z_max, o->max_jump, o->max_extrema,
+                     DRV_DEPTH_MAX_EXTREMA);
+        return -EINVAL;
+    }
+    drv_depth_tracker *t = calloc(1, sizeof *t);
+    if (!t) {
+        if (err)
+            snprintf(err, DRV_ERR_LEN, "depth tracker: out of memory");
+        return -ENOMEM;
+    }
+    t->o = *o;
+    int r = drv__grid_init(&t->g, o, err);
+    if (r == 0)
+        r = drv__geodesic_init(&t->ge, t->g.n, err);
+    if (r) {
+        drv_depth_tracker_destroy(t);
+        return r;
+    }
+    for (int l = 0; l < DRV_DEPTH_NLABELS; l++)
+        for (int a = 0; a < 3; a++)
+            drv_one_euro_init(&t->f[l][a], o->oe_min_cutoff, o->oe_beta, o->oe_dcutoff);
+    drv_depth_tracker_reset(t);
+    *out = t;
+    return 0;
+}
+
+void drv_depth_tracker_destroy(drv_depth_tracker *t)
+{
+    if (!t)
+        return;
+    drv__grid_fini(&t->g);
+    drv__geodesic_fini(&t->ge);
+    free(t);
+}
+
+void drv_depth_tracker_reset(drv_depth_tracker *t)
+{
+    t->rng = t->o.seed ? t->o.seed : 1;
+    for (int l = 0; l < DRV_DEPTH_NLABELS; l++) {
+        t->missed[l] = INT32_MAX / 2;
+        for (int a = 0; a < 3; a++)
+            drv_one_euro_reset(&t->f[l][a]);
+    }
+    memset(t->out, 0, sizeof t->out);
+}
+
+void drv_depth_tracker_grid(const drv_depth_tracker *t, int *step, int *gw, int *gh,
+                            const uint8_t **person)
+{
+    *step = t->g.step;
+    *gw = t->g.gw;
+    *gh = t->g.gh;
+    *person = t->g.person;
+}
+
+/* Puts a measurement (or its absence) for label l through the filter and the hold logic. */
+static void emit(drv_depth_tracker *t, int l, const float *meas, uint64_t t_us, drv_depth_result *r)
+{
+    if (meas) {
+        if (t->missed[l] > t->o.hold_frames)
+            for (int a = 0; a < 3; a++)
+                drv_one_euro_reset(&t->f[l][a]);
+        for (int a = 0; a < 3; a++) {
+            r->raw[l][a] = meas[a];
+            t->out[l][a] = t->o.smooth ? (float)drv_one_euro_filter(&t->f[l][a], meas[a], t_us)
+                                       : meas[a];
+        }
+        t->missed[l] = 0;
+        r->valid[l] = 1;
+    } else {
+        if (t->missed[l] <= t->o.hold_frames)
+            t->missed[l]++;
+        r->valid[l] = 0;
+        r->conf[l] = 0;
+        memcpy(r->raw[l], t->out[l], sizeof r->raw[l]);
+    }
+    memcpy(r->xyz[l], t->out[l], sizeof r->xyz[l]);
+}
+
+int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, uint64_t t_us,
+                              drv_depth_result *r)
+{
+    drv__grid *g = &t->g;
+    memset(r, 0, sizeof *r);
+    for (int i = 0; i < DRV_DEPTH_MAX_EXTREMA; i++)
+        r->extremum_label[i] = -1;
+    drv__segment_sample(g, &t->o, depth_mm);
+    float up[3] = {0, 1, 0};
+    if (t->o.floor && drv__segment_floor(g, &t->o, &t->rng, r->floor)) {
+        r->floor_found = 1;
+        memcpy(up, r->floor, sizeof up);
+    }
+    if (!drv__segment_person(g, &t->o)) {
+        for (int l = 0; l < DRV_DEPTH_NLABELS; l++)
+            emit(t, l, NULL, t_us, r);
+        return 0;
+    }
+    r->person_cells = g->ncells;
+    r->person_depth = g->mean_z;
+    /* the geodesic source: the person's cell nearest to the centroid */
+    int src = -1;
+    float bd = FLT_MAX;
+    for (int k = 0; k < g->ncells; k++) {
+        const float *p = g->P + 3 * g->cells[k];
+        float dx = p[0] - g->centroid[0], dy = p[1] - g->centroid[1], dz = p[2] - g->centroid[2];
+        float d = dx * dx + dy * dy + dz * dz;
+        if (d < bd) {
+            bd = d;
+            src = g->cells[k];
+        }
+    }
+    int nex = drv__geodesic_extrema(&t->ge, g, &t->o, src, t->ex, t->o.max_extrema);
+    r->nextrema = nex;
+    for (int i = 0; i < nex; i++) {
+        memcpy(r->extrema[i], t->ex[i].tip, sizeof r->extrema[i]);
+        r->geodesic[i] = t->ex[i].geodesic;
+        r->extremum_px[i][0] = g->px[2 * t->ex[i].cell];
+        r->extremum_px[i][1] = g->px[2 * t->ex[i].cell + 1];
+    }
+    /* body frame */
+    float right[3] = {1, 0, 0};
+    float d = right[0] * up[0] + right[1] * up[1] + right[2] * up[2];
+    for (int a = 0; a < 3; a++)
+        right[a] -= d * up[a];
+    float rn = sqrtf(right[0] * right[0] + right[1] * right[1] + right[2] * right[2]);
+    for (int a = 0; a < 3; a++)
+        right[a] /= rn;
+    drv__label_prev prev;
+    for (int l = 0; l < 5; l++) {
+        prev.valid[l] = t->missed[l] <= t->o.hold_frames;
+        memcpy(prev.p[l], t->out[l], sizeof prev.p[l]);
+    }
+    int label[5];
+    float conf[5];
+    drv__label_assign(t->ex, nex, g->centroid, up, right, &prev, label, conf);
+    for (int l = 0; l < 5; l++) {
+        if (label[l] >= 0) {
+            r->extremum_label[label[l]] = l;
+            float p[3];
+            memcpy(p, t->ex[label[l]].tip, sizeof p);
+            if (l == DRV_DEPTH_HEAD) {
+                float n = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+                for (int a = 0; a < 3 && n > 0; a++)
+                    p[a] *= 1.f + t->o.head_offset / n;
+            }
+            emit(t, l, p, t_us, r);
+            r->conf[l] = conf[l];
+        } else {
+            emit(t, l, NULL, t_us, r);
+        }
+    }
+    emit(t, DRV_DEPTH_TORSO, g->centroid, t_us, r);
+    r->conf[DRV_DEPTH_TORSO] = 1;
+    return 0;
+}

@@ -1,0 +1,305 @@
+/* segment.c - foreground segmentation of a depth image into "the person".
+ *
+ * 1. Sampling: the image is cut into step x step cells; each cell keeps the nearest valid reading
+ *    among four probe pixels (nearest, so that thin limbs survive downsampling), back-projected into
+ *    the Y-up camera frame, and gated to [z_min, z_max].
+ * 2. Floor: RANSAC (Fischler & Bolles 1981) over the cells of the lower two thirds of the image;
+ *    a hypothesis is a plane through three cells whose normal is within floor_max_tilt of +Y; its
+ *    score is the number of inliers (|n.p + d| < floor_tol) on a fixed random subset, and planes
+ *    with more than 5% of the subset below them are rejected (a floor has nothing below it, a
+ *    slice through the body has half of it). The best plane, refined by least squares, is accepted when a quarter of the subset lies on it; cells on or below it are dropped.
+ * 3. Person: connected components of the remaining cells (8-neighbour, neighbours connected when
+ *    their depths differ by less than seg_jump); among the components with at least min_area m^2
+ *    and a quarter of the largest component's area, the nearest (smallest mean depth) is the
+ *    person, so a second person standing behind is ignored.
+ */
+#include "depth_internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+double drv__rand01(uint64_t *s)
+{
+    uint64_t x = *s;
+    x ^= x >> 12;
+    x ^= x << 25;
+    x ^= x >> 27;
+    *s = x;
+    return (double)((x * 0x2545F4914F6CDD1DULL) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
+{
+    memset(g, 0, sizeof *g);
+    if (o->step < 1 || o->k.width < o->step || o->k.height < o->step || o->k.width > 8192 ||
+        o->k.height > 8192) {
+        if (err)
+            snprintf(err, DRV_ERR_LEN, "depth: bad image size %dx%d or step %d", o->k.width,
+                     o->k.height, o->step);
+        return -EINVAL;
+    }
+    g->step = o->step;
+    g->gw = o->k.width / o->step;
+    g->gh = o->k.height / o->step;
+    g->n = g->gw * g->gh;
+    size_t n = (size_t)g->n;
+    g->P = malloc(n * 3 * sizeof *g->P);
+    g->z = malloc(n * sizeof *g->z);
+    g->px = malloc(n * 2 * sizeof *g->px);
+    g->comp = malloc(n * sizeof *g->comp);
+    g->person = malloc(n);
+    g->stack = malloc(n * sizeof *g->stack);
+    g->cells = malloc(n * sizeof *g->cells);
+    g->c_area = malloc(n * sizeof *g->c_area);
+    g->c_sumz = malloc(n * sizeof *g->c_sumz);
+    g->c_count = malloc(n * sizeof *g->c_count);
+    if (!g->P || !g->z || !g->px || !g->comp || !g->person || !g->stack || !g->cells ||
+        !g->c_area || !g->c_sumz || !g->c_count) {
+        drv__grid_fini(g);
+        if (err)
+            snprintf(err, DRV_ERR_LEN, "depth: out of memory for a %dx%d grid", o->k.width,
+                     o->k.height);
+        return -ENOMEM;
+    }
+    memset(g->person, 0, n);
+    return 0;
+}
+
+void drv__grid_fini(drv__grid *g)
+{
+    free(g->P);
+    free(g->z);
+    free(g->px);
+    free(g->comp);
+    free(g->person);
+    free(g->stack);
+    free(g->cells);
+    free(g->c_area);
+    free(g->c_sumz);
+    free(g->c_count);
+    memset(g, 0, sizeof *g);
+}
+
+void drv__segment_sample(drv__grid *g, const drv_depth_opts *o, const uint16_t *depth_mm)
+{
+    const int W = o->k.width, s = g->step;
+    const int a = s / 4, b = (3 * s) / 4;
+    const int offs[4][2] = {{a, a}, {b, a}, {a, b}, {b, b}};
+    const uint16_t zmin = (uint16_t)fminf(65535.f, o->z_min * 1000.f);
+    const uint16_t zmax = (uint16_t)fminf(65535.f, o->z_max * 1000.f);
+    const float ifx = (float)(1.0 / o->k.fx), ify = (float)(1.0 / o->k.fy);
+    const float cx = (float)o->k.cx, cy = (float)o->k.cy;
+    for (int gy = 0; gy < g->gh; gy++) {
+        for (int gx = 0; gx < g->gw; gx++) {
+            int i = gy * g->gw + gx;
+            uint16_t best = 0;
+            int bu = gx * s + a, bv = gy * s + a;
+            for (int k = 0; k < 4; k++) {
+                int u = gx * s + offs[k][0], v = gy * s + offs[k][1];
+                uint16_t d = depth_mm[(size_t)v * W + u];
+                if (d >= zmin && d <= zmax && (best == 0 || d < best)) {
+                    best = d;
+                    bu = u;
+                    bv = v;
+                }
+            }
+            g->px[2 * i] = (uint16_t)bu;
+            g->px[2 * i + 1] = (uint16_t)bv;
+            g->comp[i] = -1;
+            g->person[i] = 0;
+            if (!best) {
+                g->z[i] = 0;
+                continue;
+            }
+            float z = best * 0.001f;
+            g->z[i] = z;
+            g->P[3 * i] = ((float)bu - cx) * z * ifx;
+            g->P[3 * i + 1] = -((float)bv - cy) * z * ify;
+            g->P[3 * i + 2] = -z;
+        }
+    }
+}
+
+#define FLOOR_SUBSET 256
+
+int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, float plane[4])
+{
+    /* candidates: valid cells of the lower two thirds, listed in g->stack */
+    int nc = 0;
+    for (int i = (g->gh / 3) * g->gw; i < g->n; i++)
+        if (g->z[i] > 0)
+            g->stack[nc++] = i;
+    if (nc < 64)
+        return 0;
+    /* a fixed random subset for scoring, in g->cells (free until drv__segment_person) */
+    int m = nc < FLOOR_SUBSET ? nc : FLOOR_SUBSET;
+    for (int k = 0; k < m; k++)
+        g->cells[k] = g->stack[(int)(drv__rand01(rng) * nc)];
+    const float cos_tilt = cosf(o->floor_max_tilt * (float)M_PI / 180.f);
+    int best = 0;
+    float bp[4] = {0, 1, 0, 0};
+    for (int it = 0; it < o->floor_iters; it++) {
+        const float *A = g->P + 3 * g->stack[(int)(drv__rand01(rng) * nc)];
+        const float *B = g->P + 3 * g->stack[(int)(drv__rand01(rng) * nc)];
+        const float *C = g->P + 3 * g->stack[(int)(drv__rand01(rng) * nc)];
+        float e1[3] = {B[0] - A[0], B[1] - A[1], B[2] - A[2]};
+        float e2[3] = {C[0] - A[0], C[1] - A[1], C[2] - A[2]};
+        float nx = e1[1] * e2[2] - e1[2] * e2[1];
+        float ny = e1[2] * e2[0] - e1[0] * e2[2];
+        float nz = e1[0] * e2[1] - e1[1] * e2[0];
+        float len = sqrtf(nx * nx + ny * ny + nz * nz);
+        if (len < 1e-6f)
+            continue;
+        if (ny < 0)
+            len = -len;
+        nx /= len;
+        ny /= len;
+        nz /= len;
+        if (ny < cos_tilt)
+            continue;
+        float d = -(nx * A[0] + ny * A[1] + nz * A[2]);
+        int cnt = 0, below = 0;
+        for (int k = 0; k < m; k++) {
+            const float *p = g->P + 3 * g->cells[k];
+            float h = nx * p[0] + ny * p[1] + nz * p[2] + d;
+            if (fabsf(h) < o->floor_tol)
+                cnt++;
+            else if (h < 0)
+                below++;
+        }
+        if (below * 20 > m) /* a floor has (almost) nothing below it */
+            continue;
+        if (cnt > best) {
+            best = cnt;
+            bp[0] = nx;
+            bp[1] = ny;
+            bp[2] = nz;
+            bp[3] = d;
+        }
+    }
+    if (best * 4 < m)
+        return 0;
+    /* refine: least squares y = a x + b z + c over all inliers (the floor is near-horizontal) */
+    double S[3][3] = {{0}}, r[3] = {0};
+    int cnt = 0;
+    for (int k = 0; k < nc; k++) {
+        const float *p = g->P + 3 * g->stack[k];
+        if (fabsf(bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3]) >= o->floor_tol)
+            continue;
+        double q[3] = {p[0], p[2], 1.0};
+        for (int i = 0; i < 3; i++) {
+            for (int j = 0; j < 3; j++)
+                S[i][j] += q[i] * q[j];
+            r[i] += q[i] * p[1];
+        }
+        cnt++;
+    }
+    double det = S[0][0] * (S[1][1] * S[2][2] - S[1][2] * S[2][1]) -
+                 S[0][1] * (S[1][0] * S[2][2] - S[1][2] * S[2][0]) +
+                 S[0][2] * (S[1][0] * S[2][1] - S[1][1] * S[2][0]);
+    if (cnt >= 16 && fabs(det) > 1e-12) {
+        double x[3];
+        for (int c = 0; c < 3; c++) { /* Cramer's rule */
+            double M[3][3];
+            memcpy(M, S, sizeof M);
+            for (int i = 0; i < 3; i++)
+                M[i][c] = r[i];
+            x[c] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                    M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                    M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) / det;
+        }
+        /* y = a x + b z + c  <=>  -a x + y - b z - c = 0 */
+        double len = sqrt(x[0] * x[0] + 1.0 + x[1] * x[1]);
+        float np[4] = {(float)(-x[0] / len), (float)(1.0 / len), (float)(-x[1] / len),
+                       (float)(-x[2] / len)};
+        if (np[1] >= cos_tilt)
+            memcpy(bp, np, sizeof bp);
+    }
+    memcpy(plane, bp, sizeof bp);
+    for (int i = 0; i < g->n; i++) {
+        if (g->z[i] <= 0)
+            continue;
+        const float *p = g->P + 3 * i;
+        if (bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3] < o->floor_tol)
+            g->z[i] = 0;
+    }
+    return 1;
+}
+
+int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
+{
+    const int gw = g->gw, gh = g->gh;
+    const float jump = o->seg_jump;
+    const double sx = g->step / o->k.fx, sy = g->step / o->k.fy;
+    int ncomp = 0;
+    for (int i = 0; i < g->n; i++) {
+        if (g->z[i] <= 0 || g->comp[i] >= 0)
+            continue;
+        int c = ncomp++, top = 0, count = 0;
+        double area = 0, sumz = 0;
+        g->comp[i] = c;
+        g->stack[top++] = i;
+        while (top) {
+            int j = g->stack[--top];
+            float zj = g->z[j];
+            count++;
+            area += zj * sx * zj * sy;
+            sumz += zj;
+            int x = j % gw, y = j / gw;
+            for (int dy = -1; dy <= 1; dy++) {
+                int yy = y + dy;
+                if (yy < 0 || yy >= gh)
+                    continue;
+                for (int dx = -1; dx <= 1; dx++) {
+                    int xx = x + dx;
+                    if (xx < 0 || xx >= gw || (dx == 0 && dy == 0))
+                        continue;
+                    int k = yy * gw + xx;
+                    if (g->comp[k] >= 0 || g->z[k] <= 0 || fabsf(g->z[k] - zj) >= jump)
+                        continue;
+                    g->comp[k] = c;
+                    g->stack[top++] = k;
+                }
+            }
+        }
+        g->c_area[c] = (float)area;
+        g->c_sumz[c] = (float)sumz;
+        g->c_count[c] = count;
+    }
+    g->ncells = 0;
+    g->mean_z = 0;
+    float amax = 0;
+    for (int c = 0; c < ncomp; c++)
+        if (g->c_area[c] > amax)
+            amax = g->c_area[c];
+    int best = -1;
+    float bestz = 0;
+    for (int c = 0; c < ncomp; c++) {
+        if (g->c_area[c] < o->min_area || g->c_area[c] * 4 < amax)
+            continue;
+        float mz = g->c_sumz[c] / (float)g->c_count[c];
+        if (best < 0 || mz < bestz) {
+            best = c;
+            bestz = mz;
+        }
+    }
+    if (best < 0)
+        return 0;
+    double cs[3] = {0, 0, 0};
+    for (int i = 0; i < g->n; i++) {
+        if (g->comp[i] != best)
+            continue;
+        g->person[i] = 1;
+        g->cells[g->ncells++] = i;
+        cs[0] += g->P[3 * i];
+        cs[1] += g->P[3 * i + 1];
+        cs[2] += g->P[3 * i + 2];
+    }
+    for (int a = 0; a < 3; a++)
+        g->centroid[a] = (float)(cs[a] / g->ncells);
+    g->mean_z = bestz;
+    return g->ncells;
+}

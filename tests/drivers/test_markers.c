@@ -1,0 +1,93 @@
+/* test_markers.c - depth -> markers on the 12 real Kinect frames of Skeltrack's test set (upper
+ * bodies; two frames have a second person behind): the nearest person is tracked, head and both
+ * hands are found. Overlays go to <build>/tests/drivers/markers-<frame>.png. */
+#include "depth/depth.h"
+#include "overlay.h"
+#include "test.h"
+
+static const char *frames[] = {"depth-data-1028894671", "depth-data-1038901490",
+                               "depth-data-1045879925", "depth-data-1051883281",
+                               "depth-data-1058893191", "depth-data-1064898470",
+                               "depth-data-1070905432", "depth-data-1078881076",
+                               "depth-data-1166565565", "depth-data-1234568668",
+                               "depth-data-1399145206", "depth-data-82823944"};
+
+static int load(const char *path, uint16_t *d)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return -1;
+    uint8_t *b = malloc(640 * 480 * 2);
+    size_t n = fread(b, 1, 640 * 480 * 2, f);
+    fclose(f);
+    for (int i = 0; i < 640 * 480; i++)
+        d[i] = (uint16_t)(b[2 * i] | b[2 * i + 1] << 8);
+    free(b);
+    return n == 640 * 480 * 2 ? 0 : -1;
+}
+
+int main(void)
+{
+    char err[DRV_ERR_LEN] = "";
+    drv_depth_opts o;
+    drv_depth_opts_default(&o);
+    drv_depth_tracker *t;
+    ASSERT_OK(drv_depth_tracker_create(&o, &t, err), err);
+    uint16_t *d = malloc(640 * 480 * sizeof *d);
+    const char *build = getenv("MESHSTEER_BUILD");
+    for (size_t i = 0; i < sizeof frames / sizeof *frames; i++) {
+        char rel[256];
+        snprintf(rel, sizeof rel, "depth/skeltrack-kinect-raw16/%s", frames[i]);
+        ASSERT_INT_EQ(load(test_data(rel), d), 0);
+        drv_depth_tracker_reset(t); /* independent snapshots */
+        drv_depth_result r;
+        ASSERT_OK(drv_depth_tracker_process(t, d, 0, &r), "");
+        char png[4096];
+        snprintf(png, sizeof png, "%s/tests/drivers/markers-%s.png", build ? build : ".", frames[i]);
+        ASSERT_INT_EQ(overlay_write_png(png, &o.k, d, t, &r, NULL, NULL), 0);
+        printf("%s: cells %d depth %.2f m extrema %d", frames[i], r.person_cells, r.person_depth,
+               r.nextrema);
+        for (int l = 0; l < DRV_DEPTH_NLABELS; l++)
+            printf("  %s %s(%.2f %.2f %.2f c%.2f)", drv_depth_label_names[l], r.valid[l] ? "" : "-",
+                   r.xyz[l][0], r.xyz[l][1], r.xyz[l][2], r.conf[l]);
+        printf("\n");
+        /* a person of plausible size at the depth these frames were taken (1.1 .. 1.4 m) */
+        ASSERT(r.person_cells > 1000);
+        ASSERT(r.person_depth > 1.0f && r.person_depth < 1.5f);
+        /* head and both hands */
+        ASSERT(r.valid[DRV_DEPTH_HEAD]);
+        ASSERT(r.valid[DRV_DEPTH_LHAND]);
+        ASSERT(r.valid[DRV_DEPTH_RHAND]);
+        /* the head is above the torso and is the top of the person unless a hand is raised */
+        ASSERT(r.xyz[DRV_DEPTH_HEAD][1] > r.xyz[DRV_DEPTH_TORSO][1] + 0.25f);
+        ASSERT(fabsf(r.xyz[DRV_DEPTH_HEAD][0] - r.xyz[DRV_DEPTH_TORSO][0]) < 0.2f);
+        /* hands apart from the head and from each other */
+        for (int h = DRV_DEPTH_LHAND; h <= DRV_DEPTH_RHAND; h++) {
+            float dx = r.xyz[h][0] - r.xyz[DRV_DEPTH_HEAD][0], dy = r.xyz[h][1] - r.xyz[DRV_DEPTH_HEAD][1],
+                  dz = r.xyz[h][2] - r.xyz[DRV_DEPTH_HEAD][2];
+            ASSERT(sqrtf(dx * dx + dy * dy + dz * dz) > 0.25f);
+        }
+        ASSERT(fabsf(r.xyz[DRV_DEPTH_LHAND][0] - r.xyz[DRV_DEPTH_RHAND][0]) > 0.2f);
+        /* upper bodies only: no feet */
+        ASSERT(!r.valid[DRV_DEPTH_LFOOT] && !r.valid[DRV_DEPTH_RFOOT]);
+        /* the two frames with a second person behind, right of the first (pixels u 450..520,
+         * v 320..420 are theirs): the one tracked is the nearer, the other 0.3 m further away */
+        if (!strcmp(frames[i], "depth-data-1399145206") || !strcmp(frames[i], "depth-data-82823944")) {
+            double sum = 0;
+            int n = 0;
+            for (int v = 320; v < 420; v++)
+                for (int u = 450; u < 520; u++)
+                    if (d[v * 640 + u]) {
+                        sum += d[v * 640 + u] * 0.001;
+                        n++;
+                    }
+            ASSERT(n > 500);
+            printf("  second person at %.2f m, tracked at %.2f m\n", sum / n, r.person_depth);
+            ASSERT(r.person_depth + 0.3 < sum / n);
+            ASSERT(r.xyz[DRV_DEPTH_TORSO][0] < 0.05f);
+        }
+    }
+    free(d);
+    drv_depth_tracker_destroy(t);
+    return 0;
+}
