@@ -62,10 +62,12 @@ test)
     [ "${CI:-}" = "true" ] && werror=(-Dwerror=true)
     setup_build build "${werror[@]}"
     meson test -C build --print-errorlogs --num-processes 2
-    # Once more under AddressSanitizer and UndefinedBehaviorSanitizer (unit suites).
+    # Once more under AddressSanitizer and UndefinedBehaviorSanitizer: every unit test and fuzz
+    # target (the daemon integration tests assert timing and memory, which ASan distorts).
     setup_build build-asan -Db_sanitize=address,undefined -Db_lundef=false "${werror[@]}"
     ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
-        meson test -C build-asan --print-errorlogs --num-processes 2 --suite model
+        meson test -C build-asan --print-errorlogs --num-processes 2 \
+            --suite model --suite drivers --suite server-unit
     ;;
 *)
     echo "usage: scripts/run.sh demo|test" >&2
