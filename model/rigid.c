@@ -106,34 +106,48 @@ void mdl__rot_from_cov(const double S[9], double q[4], double R[9])
     mdl__quat_to_mat(q, R);
 }
 
-int mdl__rot_refine(const double S[9], double q[4], double R[9])
+int mdl__rot_polar(const double S[9], double R[9])
 {
-    for (int it = 0; it < 24; it++) {
-        mdl__quat_to_mat(q, R);
-        /* columns of R: (R[c], R[3 + c], R[6 + c]); columns of A = S^T: rows of S */
-        double w[3] = {0, 0, 0}, dot = 0;
-        for (int c = 0; c < 3; c++) {
-            double r[3] = {R[c], R[3 + c], R[6 + c]}, a[3] = {S[3 * c], S[3 * c + 1], S[3 * c + 2]};
-            w[0] += r[1] * a[2] - r[2] * a[1];
-            w[1] += r[2] * a[0] - r[0] * a[2];
-            w[2] += r[0] * a[1] - r[1] * a[0];
-            dot += r[0] * a[0] + r[1] * a[1] + r[2] * a[2];
+    double q[4];
+    /* maximising tr(R S) = tr(R^T S^T): R is the orthogonal polar factor of A = S^T, found by
+     * Newton's iteration X <- (g X + X^{-T} / g) / 2 with Higham's scaling
+     * g = (|X^{-1}|_F / |X|_F)^{1/2}, which converges quadratically from X = A whenever A is
+     * non-singular. A reflection (det A <= 0) or no convergence falls back to Horn. */
+    double X[9] = {S[0], S[3], S[6], S[1], S[4], S[7], S[2], S[5], S[8]};
+    double det = X[0] * (X[4] * X[8] - X[5] * X[7]) - X[1] * (X[3] * X[8] - X[5] * X[6]) +
+                 X[2] * (X[3] * X[7] - X[4] * X[6]);
+    double fro = 0;
+    for (int k = 0; k < 9; k++)
+        fro += X[k] * X[k];
+    if (!(det > 1e-12 * fro * sqrt(fro))) {
+        mdl__rot_from_cov(S, q, R);
+        return -1;
+    }
+    for (int it = 0; it < 30; it++) {
+        /* cofactor matrix C: X^{-T} = C / det */
+        double C[9] = {X[4] * X[8] - X[5] * X[7], X[5] * X[6] - X[3] * X[8], X[3] * X[7] - X[4] * X[6],
+                       X[2] * X[7] - X[1] * X[8], X[0] * X[8] - X[2] * X[6], X[1] * X[6] - X[0] * X[7],
+                       X[1] * X[5] - X[2] * X[4], X[2] * X[3] - X[0] * X[5], X[0] * X[4] - X[1] * X[3]};
+        double d = X[0] * C[0] + X[1] * C[1] + X[2] * C[2];
+        if (!(d > 0))
+            break;
+        double fx = 0, fi = 0;
+        for (int k = 0; k < 9; k++) {
+            fx += X[k] * X[k];
+            fi += C[k] * C[k];
         }
-        double inv = 1.0 / (fabs(dot) + 1e-300);
-        for (int k = 0; k < 3; k++)
-            w[k] *= inv;
-        double ang = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-        if (ang < 1e-10)
-            return it;
-        double h = 0.5 * ang, sn = sin(h) / ang;
-        double d[4] = {cos(h), w[0] * sn, w[1] * sn, w[2] * sn};
-        double n[4] = {d[0] * q[0] - d[1] * q[1] - d[2] * q[2] - d[3] * q[3],
-                       d[0] * q[1] + d[1] * q[0] + d[2] * q[3] - d[3] * q[2],
-                       d[0] * q[2] - d[1] * q[3] + d[2] * q[0] + d[3] * q[1],
-                       d[0] * q[3] + d[1] * q[2] - d[2] * q[1] + d[3] * q[0]};
-        double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
-        for (int k = 0; k < 4; k++)
-            q[k] = n[k] / nn;
+        fi /= d * d;
+        double g = sqrt(sqrt(fi / fx));
+        double change = 0;
+        for (int k = 0; k < 9; k++) {
+            double nx = 0.5 * (g * X[k] + C[k] / (d * g));
+            change += (nx - X[k]) * (nx - X[k]);
+            X[k] = nx;
+        }
+        if (change < 1e-24) {
+            memcpy(R, X, sizeof X);
+            return it + 1;
+        }
     }
     mdl__rot_from_cov(S, q, R);
     return -1;

@@ -16,13 +16,11 @@
 /* Rotation R maximising tr(R S) where S = sum y x^T (row-major: S[3a+b] = sum y_a x_b). */
 void mdl__rot_from_cov(const double S[9], double q[4], double R[9]);
 
-/* The same maximiser refined from a starting quaternion q (in/out), after [Mueller, Bender,
- * Chentanez, Macklin 2016, "A robust method to extract the rotational part of deformations"]:
- * repeatedly turn R by the axis-angle sum_c (r_c x a_c) / |sum_c r_c . a_c| over the columns of
- * R and A = S^T until the step vanishes. A few cheap iterations from a nearby start, which is what
- * the alignment sweeps of synth.c have; returns the iterations used, or -1 (then q is Horn's
- * solution instead) when it did not converge. */
-int mdl__rot_refine(const double S[9], double q[4], double R[9]);
+/* The same maximiser by the orthogonal polar factor of S^T (scaled Newton iteration [Higham 1986,
+ * "Computing the polar decomposition - with applications", Sec. 3]), which needs no 4x4
+ * eigenproblem and converges in a handful of steps; falls back to Horn for a reflection or a
+ * singular S. Returns the iterations used, or -1 for the fallback. */
+int mdl__rot_polar(const double S[9], double R[9]);
 
 void mdl__quat_to_mat(const double q[4], double R[9]);
 void mdl__mat_to_quat(const double R[9], double q[4]);

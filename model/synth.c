@@ -45,13 +45,16 @@ struct mdl_synth {
     double Rb[9], ob[3];
     double *feat, *row, *z, *out; /* scratch: features, design row, design row + 1, outputs */
     double *iq, *iR, *it;      /* per instance: predicted quaternion, rotation, translation */
-    double *cq;                /* per instance: current rotation as a quaternion (warm start) */
+    double *iRp;               /* per instance: the predicted rotation as a matrix */
+    int *shared;               /* vertices held by several instances (the only ones in acc) */
+    int nshared;
     double *lam, *lamp;        /* per instance modes (offset inst_lam) */
     int *inst_lam;             /* ninst + 1 */
     int *inst_pos;             /* ninst + 1: offsets (in vertices) into pos */
     float *pos;                /* positions of every instance's vertices, body frame */
     float *loc;                /* local shapes (eq. 6) of every instance's vertices */
     float *flam;               /* max modes, float copy of lambda for sgemv */
+    float *iw;                 /* blend weight (eq. 8) of every instance vertex, instance-major */
     double *acc;               /* nv x 3 */
     int *cnt;                  /* nv */
     double *rhs;               /* max modes */
@@ -73,7 +76,8 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->z);
     free(s->out);
     free(s->iq);
-    free(s->cq);
+    free(s->iRp);
+    free(s->shared);
     free(s->iR);
     free(s->it);
     free(s->lam);
@@ -83,6 +87,7 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->pos);
     free(s->loc);
     free(s->flam);
+    free(s->iw);
     free(s->acc);
     free(s->cnt);
     free(s->rhs);
@@ -125,7 +130,25 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->z = mdl__calloc((size_t)maxx + 1, sizeof(double));
     s->out = mdl__calloc((size_t)maxo, sizeof(double));
     s->iq = mdl__calloc((size_t)NI * 4, sizeof(double));
-    s->cq = mdl__calloc((size_t)NI * 4, sizeof(double));
+    s->iRp = mdl__calloc((size_t)NI * 9, sizeof(double));
+    s->shared = mdl__calloc((size_t)m->nv, sizeof(int));
+    if (s->shared) {
+        uint8_t *seen = mdl__calloc((size_t)m->nv, 1);
+        if (!seen) {
+            free(s->shared);
+            s->shared = NULL;
+        } else {
+            for (int i = 0; i < NI; i++)
+                for (int o = m->sov_off[i]; o < m->sov_off[i + 1]; o++) {
+                    int v = m->pv_idx[m->pv_off[m->inst_part[i]] + m->sov[o]];
+                    if (!seen[v]) {
+                        seen[v] = 1;
+                        s->shared[s->nshared++] = v;
+                    }
+                }
+            free(seen);
+        }
+    }
     s->iR = mdl__calloc((size_t)NI * 9, sizeof(double));
     s->it = mdl__calloc((size_t)NI * 3, sizeof(double));
     s->inst_lam = mdl__calloc((size_t)NI + 1, sizeof(int));
@@ -141,6 +164,11 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->pos = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
     s->loc = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
     s->flam = mdl__calloc((size_t)maxk, sizeof(float));
+    s->iw = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(float));
+    if (s->iw && s->inst_pos)
+        for (int v = 0; v < m->nv; v++)
+            for (int b = m->blend_off[v]; b < m->blend_off[v + 1]; b++)
+                s->iw[s->inst_pos[m->blend_inst[b]] + m->blend_local[b]] = m->blend_w[b];
     s->acc = mdl__calloc((size_t)m->nv * 3, sizeof(double));
     s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
     s->mb = mdl__calloc((size_t)nm * 3, sizeof(double));
@@ -163,8 +191,8 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
         }
     }
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
-    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq || !s->cq ||
-        !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->pos || !s->loc || !s->flam ||
+    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq || !s->iRp || !s->shared ||
+        !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->pos || !s->loc || !s->flam || !s->iw ||
         !s->acc || !s->cnt || !s->rhs || !s->mb ||
         !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker) {
         mdl_synth_destroy(s);
@@ -298,12 +326,10 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
             }
         }
     }
-    double Rp[9];
-    mdl__quat_to_mat(s->iq + 4 * i, Rp);
-    double *R = s->iR + 9 * i, *t = s->it + 3 * i, *q = s->cq + 4 * i;
+    const double *Rp = s->iRp + 9 * i;
+    double *R = s->iR + 9 * i, *t = s->it + 3 * i;
     if (!(ws > 0)) {
-        memcpy(R, Rp, sizeof Rp);
-        memcpy(q, s->iq + 4 * i, 4 * sizeof(double));
+        memcpy(R, Rp, 9 * sizeof *Rp);
         return;
     }
     double cy[3] = {sy[0] / ws, sy[1] / ws, sy[2] / ws}, cx[3] = {sx[0] / ws, sx[1] / ws, sx[2] / ws};
@@ -313,7 +339,7 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++)
             S[3 * r + c] = syx[3 * r + c] - ws * cy[r] * cx[c] + mu * Rp[3 * c + r];
-    mdl__rot_refine(S, q, R);
+    mdl__rot_polar(S, R);
     for (int r = 0; r < 3; r++)
         t[r] = cx[r] - (R[3 * r] * cy[0] + R[3 * r + 1] * cy[1] + R[3 * r + 2] * cy[2]);
 }
@@ -325,8 +351,11 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
 static void align_all(mdl_synth *s, int relax)
 {
     const struct mdl_model *m = s->m;
-    memset(s->acc, 0, sizeof(double) * 3 * (size_t)m->nv);
-    memset(s->cnt, 0, sizeof(int) * (size_t)m->nv);
+    for (int e = 0; e < s->nshared; e++) { /* only shared vertices are ever accumulated */
+        int v = s->shared[e];
+        s->acc[3 * (size_t)v] = s->acc[3 * (size_t)v + 1] = s->acc[3 * (size_t)v + 2] = 0;
+        s->cnt[v] = 0;
+    }
     for (int step = 0; step < m->ninst; step++) {
         int i = m->order[step];
         align_instance(s, i, m->order_ov + m->order_ov_off[step],
@@ -452,7 +481,7 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
             double *q = s->iq + 4 * i, nq = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3]);
             for (int c = 0; c < 4; c++)
                 q[c] = nq > 1e-9 ? y[c] / nq : (c == 0);
-            memcpy(s->cq + 4 * i, q, 4 * sizeof(double));
+            mdl__quat_to_mat(q, s->iRp + 9 * i);
             for (int c = 0; c < 3; c++)
                 s->it[3 * i + c] = y[4 + c];
             int p = m->inst_part[i], k = m->pmodes[p];
@@ -475,9 +504,9 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
         optimise_shapes(s);
         align_all(s, it + 1 < m->iterations ? 1 : m->relax);
     }
-    for (int i = 0; i < m->ninst; i++)
-        inst_emit(s, i, 0, 1);
-    /* 4-5. blend (eq. 8) and place in the markers' frame */
+    /* 4-5. blend (eq. 8) and place in the markers' frame: every instance's transform is composed
+     * with the placement, then its vertices are added into the output with their blend weights
+     * (instance-major, so that the inner loop reads contiguous memory) */
     double PR[9], Po[3];
     if (m->place_mode == 1) { /* ground-locked: the mesh's own frame, turned and moved like the performer */
         double th = mdl__body_heading(s->Rb) - m->rec_heading, c = cos(th), sn = sin(th);
@@ -493,17 +522,25 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
         memcpy(PR, s->Rb, sizeof PR);
         memcpy(Po, s->ob, sizeof Po);
     }
-    for (int v = 0; v < m->nv; v++) {
-        double x[3] = {0, 0, 0};
-        for (int b = m->blend_off[v]; b < m->blend_off[v + 1]; b++) {
-            const float *p = s->pos + 3 * ((size_t)s->inst_pos[m->blend_inst[b]] + m->blend_local[b]);
-            float w = m->blend_w[b];
-            x[0] += w * p[0];
-            x[1] += w * p[1];
-            x[2] += w * p[2];
+    memset(Vout, 0, sizeof(float) * 3 * (size_t)m->nv);
+    for (int i = 0; i < m->ninst; i++) {
+        const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
+        float W[9], tw[3];
+        for (int r = 0; r < 3; r++) {
+            for (int k = 0; k < 3; k++)
+                W[3 * r + k] = (float)(PR[3 * r] * R[k] + PR[3 * r + 1] * R[3 + k] + PR[3 * r + 2] * R[6 + k]);
+            tw[r] = (float)(PR[3 * r] * t[0] + PR[3 * r + 1] * t[1] + PR[3 * r + 2] * t[2] + Po[r]);
         }
-        for (int r = 0; r < 3; r++)
-            Vout[3 * v + r] = (float)(PR[3 * r] * x[0] + PR[3 * r + 1] * x[1] + PR[3 * r + 2] * x[2] + Po[r]);
+        int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
+        const int *idx = m->pv_idx + m->pv_off[p];
+        const float *loc = s->loc + 3 * (size_t)s->inst_pos[i], *iw = s->iw + s->inst_pos[i];
+        for (int j = 0; j < n; j++) {
+            const float *y = loc + 3 * j;
+            float w = iw[j], *o = Vout + 3 * (size_t)idx[j];
+            o[0] += w * (W[0] * y[0] + W[1] * y[1] + W[2] * y[2] + tw[0]);
+            o[1] += w * (W[3] * y[0] + W[4] * y[1] + W[5] * y[2] + tw[1]);
+            o[2] += w * (W[6] * y[0] + W[7] * y[1] + W[8] * y[2] + tw[2]);
+        }
     }
     return 0;
 }

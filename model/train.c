@@ -52,7 +52,7 @@ void mdl_train_opts_default(mdl_train_opts *o)
     o->marker_weight = -1;
     o->linear = -1;
     o->relax = 4;
-    o->align_samples = 48;
+    o->align_samples = 16;
     o->name = "model";
 }
 

@@ -10,13 +10,16 @@ cd "$(dirname "$0")/.."
 PACKAGES=(build-essential meson ninja-build pkg-config clang libclang-rt-14-dev
           libopenblas-dev liblapacke-dev libcjson-dev libpng-dev
           libwebsockets-dev libsystemd-dev libopenni2-dev libusb-1.0-0-dev
-          nodejs npm chromium valgrind)
+          chromium valgrind)
 
 setup_packages() {
     local missing=()
     for p in "${PACKAGES[@]}"; do
         dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
     done
+    # Node.js and npm (for the viewer's three.js) may come from elsewhere than Debian; only when
+    # the commands are missing do we ask for Debian's.
+    command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1 || missing+=(nodejs npm)
     [ ${#missing[@]} -eq 0 ] && return 0
     if [ "$(id -u)" -ne 0 ]; then
         echo "meshsteer needs these Debian packages; run as root:" >&2

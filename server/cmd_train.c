@@ -39,7 +39,7 @@ static const char usage_text[] =
     "                     markers, 0 with a recording of another subject)\n"
     "  --relax N          alignment sweeps against all neighbours after the greedy pass (default 4)\n"
     "  --align-samples N  shared vertices per part used by alignment and shape steps (default\n"
-    "                     48; 0 = all)\n" CLI_MARKER_OPTS_HELP;
+    "                     16; 0 = all)\n" CLI_MARKER_OPTS_HELP;
 
 int cmd_train(int argc, char **argv)
 {
