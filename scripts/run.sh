@@ -56,7 +56,13 @@ demo)
     setup_packages
     setup_web
     setup_build build
-    exec build/server/meshsteer demo
+    # train on the built-in example and print the quality report, then stream its trot recording
+    build/server/meshsteer demo --out build/demo
+    port=${MESHSTEER_PORT:-8080}
+    echo
+    echo "meshsteerd: open http://127.0.0.1:$port/ in a browser (Ctrl-C stops)"
+    exec build/server/meshsteerd --model build/demo/model.msm \
+        --source "replay:build/demo/trot.csv?loop=1" --listen "127.0.0.1:$port"
     ;;
 test)
     setup_packages

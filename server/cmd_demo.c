@@ -18,7 +18,9 @@ static const char usage_text[] =
     "it trotting), trains a model on the walk, synthesises the trot from its markers and prints\n"
     "the error against the trot's true meshes beside the nearest-training-frame baseline.\n"
     "\n"
-    "  --out DIR      where to write model.msm, trot.pc2 and rest.obj (default demo-out)\n"
+    "  --out DIR      where to write model.msm, trot.csv (the markers), trot.pc2 and rest.obj\n"
+    "                 (default demo-out); `meshsteerd --model DIR/model.msm --source\n"
+    "                 replay:DIR/trot.csv?loop=1` then streams the trot to browsers\n"
     "  --frames N     frames of walk and of trot (default 60)\n"
     "  --speed S      trot cycle rate relative to the walk (default 1.3)\n";
 
@@ -117,6 +119,9 @@ int cmd_demo(int argc, char **argv)
         snprintf(path, sizeof path, "%s/rest.obj", outdir);
         if (ok)
             ok = mdl_mesh_write_obj(path, walk->V, walk->nv, walk->F, walk->nf, err) == 0;
+        snprintf(path, sizeof path, "%s/trot.csv", outdir);
+        if (ok)
+            ok = mdl_markers_write_csv(path, rec, err) == 0;
         mdl_synth_destroy(s);
         free(out);
         if (!ok) {
@@ -139,7 +144,8 @@ int cmd_demo(int argc, char **argv)
            r.baseline_nn_p95_err);
     printf("    model / baseline          %.2f\n", r.mean_err / r.baseline_nn_mean_err);
     printf("  synthesis: %.1f us/frame median, %.1f us p99 (one core)\n", med, p99);
-    printf("  written: %s/model.msm, %s/trot.pc2, %s/rest.obj\n", outdir, outdir, outdir);
+    printf("  written: %s/model.msm, %s/trot.csv, %s/trot.pc2, %s/rest.obj\n", outdir, outdir,
+           outdir, outdir);
     status = CLI_EXIT_OK;
 out:
     mdl_eval_result_fini(&r);
