@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# test_cli.sh - the meshsteer command end to end: every command on the built-in example, the
+# puppeteering path on real data (a human BVH steering the horse), and the exit statuses and
+# messages for bad usage and bad input. Usage: test_cli.sh MESHSTEER SRC_DIR DATA_DIR
+set -euo pipefail
+ms=$1 src=$2 data=$3
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+expect_status() { # expect_status N command...
+    local want=$1; shift
+    set +e
+    "$@" >"$dir/out" 2>"$dir/err"
+    local got=$?
+    set -e
+    [ "$got" -eq "$want" ] || { cat "$dir/err" >&2; fail "$* exited $got, expected $want"; }
+}
+json_num() { # json_num FILE KEY -> the number after "KEY":
+    sed -n "s/.*\"$2\":[[:space:]]*\\([-0-9.e+]*\\).*/\\1/p" "$1" | head -1
+}
+
+# usage: help is 0, no arguments / unknown command / missing options are 2 with a message
+expect_status 0 "$ms" --help
+grep -q "train" "$dir/out" || fail "--help does not list train"
+expect_status 2 "$ms"
+expect_status 2 "$ms" frobnicate
+grep -q "unknown command" "$dir/err" || fail "no message for an unknown command"
+for c in train synth eval inspect render bench example demo; do
+    expect_status 0 "$ms" $c --help
+done
+expect_status 2 "$ms" train --mesh /nonexistent --rig x.json -o y.msm
+grep -q "/nonexistent" "$dir/err" || fail "the error does not name the missing file"
+
+# the built-in example through files: example -> train -> inspect -> eval -> synth -> render
+expect_status 0 "$ms" example -o "$dir/ex" --frames 40
+[ -f "$dir/ex/rig.json" ] && [ -f "$dir/ex/markers.csv" ] && [ -f "$dir/ex/mesh/0000.obj" ] ||
+    fail "example did not write mesh, rig and markers"
+expect_status 0 "$ms" train --mesh "$dir/ex/mesh" --rig "$dir/ex/rig.json" --frames 0:40:2 \
+    -o "$dir/ex.msm" --report "$dir/report.json"
+grep -q '"clusters"' "$dir/report.json" || fail "the report has no cluster count"
+expect_status 0 "$ms" inspect "$dir/ex.msm"
+grep -q "near-rigid clusters" "$dir/out" || fail "inspect does not describe the parts"
+expect_status 0 "$ms" eval --model "$dir/ex.msm" --mesh "$dir/ex/mesh" --frames 1:40:2 --json
+cp "$dir/out" "$dir/eval.json"
+mean=$(json_num "$dir/eval.json" mean_err) base=$(json_num "$dir/eval.json" baseline_nn_mean_err)
+awk -v a="$mean" -v b="$base" 'BEGIN { exit !(a > 0 && a < b) }' ||
+    fail "example: model error $mean is not below the baseline $base"
+expect_status 0 "$ms" synth --model "$dir/ex.msm" --markers "$dir/ex/markers.csv" -o "$dir/ex.pc2" \
+    --obj-dir "$dir/exobj" --json
+[ "$(json_num "$dir/out" nonfinite)" = "0" ] || fail "synth produced non-finite values"
+[ -f "$dir/exobj/0000.obj" ] || fail "synth --obj-dir wrote nothing"
+expect_status 0 "$ms" render --mesh "$dir/ex.pc2" --rest "$dir/ex/mesh/0000.obj" --frames 0:40:10 \
+    -o "$dir/sheet.png"
+head -c 8 "$dir/sheet.png" | od -An -tx1 | grep -q "89 50 4e 47" || fail "render did not write a PNG"
+
+# a model refuses a corrupt file and a mesh of another topology
+head -c 1000 "$dir/ex.msm" >"$dir/cut.msm"
+expect_status 2 "$ms" inspect "$dir/cut.msm"
+grep -q "cut.msm" "$dir/err" || fail "the error does not name the truncated model"
+
+if [ -d "$data/meshes/horse-gallop" ]; then
+    expect_status 2 "$ms" eval --model "$dir/ex.msm" --mesh "$data/meshes/horse-gallop" --frames 1 --json
+    grep -q "topology" "$dir/err" || fail "a foreign mesh was not refused for its topology"
+    # the paper's real use: a human recording steers the horse
+    expect_status 0 "$ms" train --mesh "$data/meshes/horse-gallop" --rig "$src/rigs/horse-human.json" \
+        --markers "$data/mocap/bvh/cmu/131_01.bvh" -o "$dir/puppet.msm"
+    expect_status 0 "$ms" synth --model "$dir/puppet.msm" --markers "$data/mocap/bvh/cmu/131_03.bvh" \
+        -o "$dir/hop.pc2" --json
+    cp "$dir/out" "$dir/hop.json"
+    cat "$dir/hop.json"
+    [ "$(json_num "$dir/hop.json" nonfinite)" = "0" ] || fail "the hop has non-finite values"
+    jo=$(json_num "$dir/hop.json" output_jitter) ji=$(json_num "$dir/hop.json" input_jitter)
+    awk -v o="$jo" -v i="$ji" 'BEGIN { exit !(o < 2 * i) }' ||
+        fail "the horse moves less smoothly (jitter $jo) than twice its input ($ji)"
+    # a sane box: within 10 m, feet not far below the floor
+    lo=$(grep '"bbox_min"' "$dir/hop.json" | grep -o '\[.*\]' | tr -d '[] \t')
+    hi=$(grep '"bbox_max"' "$dir/hop.json" | grep -o '\[.*\]' | tr -d '[] \t')
+    awk -v lo="$lo" -v hi="$hi" 'BEGIN { split(lo, a, ","); split(hi, b, ",");
+        for (i = 1; i <= 3; i++) if (b[i] - a[i] > 10 || b[i] - a[i] <= 0) exit 1;
+        exit !(a[2] > -0.5) }' || fail "the hop leaves a sane box: $lo .. $hi"
+    expect_status 0 "$ms" render --mesh "$dir/hop.pc2" --rest "$data/meshes/horse-gallop/0001.obj" \
+        --frames 0:1102:92 -o "${MESHSTEER_BUILD:-$dir}/hop-contact-sheet.png"
+fi
+echo "cli: ok"
