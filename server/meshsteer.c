@@ -12,6 +12,7 @@ int cmd_eval(int argc, char **argv);
 int cmd_inspect(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_demo(int argc, char **argv);
+int cmd_markers(int argc, char **argv);
 
 /* render and example commands (cmd_render.c, cmd_example.c) */
 
@@ -28,6 +29,7 @@ static const cli_command commands[] = {
     {"eval", "measure a model against ground-truth frames (JSON)", cmd_eval},
     {"inspect", "summarise a model file", cmd_inspect},
     {"bench", "time training and per-frame synthesis (median, p99)", cmd_bench},
+    {"markers", "write the rig vertices of a mesh sequence as a marker file", cmd_markers},
 
     /* render and example commands */
     {"render", "draw a contact sheet (PNG) of mesh frames", cmd_render},
