@@ -1,7 +1,7 @@
 /* eval.c - quality of a model against ground-truth frames, beside the nearest-training-frame
  * baseline (DESIGN.md "Quality, measured"; the interface is documented in model.h).
- * Evaluation, not a per-frame path: it allocates freely. Noise is Box-Muller over a splitmix64
- * stream so that a seed reproduces a run exactly. */
+ * Evaluation, not a per-frame path: it allocates freely. Noise comes from util.h's reproducible
+ * stream, so that a seed reproduces a run exactly. */
 #include "model_internal.h"
 #include "rigid.h"
 #include "util.h"
@@ -11,25 +11,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static uint64_t splitmix(uint64_t *s)
-{
-    uint64_t z = (*s += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-
-static double uniform(uint64_t *s)
-{
-    return ((double)(splitmix(s) >> 11) + 0.5) / 9007199254740992.0;
-}
-
-static double gauss(uint64_t *s)
-{
-    double u = uniform(s), v = uniform(s);
-    return sqrt(-2 * log(u)) * cos(2 * M_PI * v);
-}
 
 static int cmp_float(const void *a, const void *b)
 {
@@ -126,11 +107,11 @@ int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, 
         const float *T = seq->V + (size_t)frames[i] * nv * 3;
         for (int j = 0; j < nm; j++) {
             const float *p = T + 3 * m->markers[j].vertex;
-            valid[j] = !(o->drop > 0 && uniform(&rng) < o->drop);
+            valid[j] = !(o->drop > 0 && mdl__uniform(&rng) < o->drop);
             r->markers_dropped += !valid[j];
             for (int c = 0; c < 3; c++) {
                 tmk[3 * j + c] = p[c];
-                mk[3 * j + c] = p[c] + (float)(o->noise_m > 0 ? o->noise_m * gauss(&rng) : 0);
+                mk[3 * j + c] = p[c] + (float)(o->noise_m > 0 ? o->noise_m * mdl__gauss(&rng) : 0);
             }
         }
         struct timespec t0, t1;

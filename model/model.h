@@ -161,6 +161,9 @@ typedef struct mdl_train_opts {
                               1 with virtual markers (they live in the mesh's space), else 0 */
     int relax;             /* alignment sweeps against all neighbours after the greedy pass */
     int align_samples;     /* shared vertices per instance used by alignment and eq. 7 (0: all) */
+    double train_noise;    /* with virtual markers: standard deviation (m) of the marker noise the
+                              regressions are taught to ignore, by noisy copies of each frame */
+    int noise_copies;      /* how many noisy copies of each training frame */
     const char *name;      /* model name, stored in the file */
     mdl_progress_fn progress;
     void *progress_ud;

@@ -141,12 +141,12 @@ void mdl__limb_features(const float *P, const float *Pprev, const int *path, int
                 double w[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
                 for (int c = 0; c < 3; c++)
                     d[c] = R[c] * w[0] + R[3 + c] * w[1] + R[6 + c] * w[2];
-                double n = norm3(d);
-                if (n > 1e-9)
-                    for (int c = 0; c < 3; c++)
-                        d[c] /= n;
-                else
-                    d[0] = d[1] = d[2] = 0;
+                /* soft normalisation: the direction for movements well above MDL_MOTION_EPS
+                 * per frame, shrinking to zero below it, so that marker noise on a still
+                 * marker does not become a full-size random direction */
+                double n = sqrt(norm3(d) * norm3(d) + MDL_MOTION_EPS * MDL_MOTION_EPS);
+                for (int c = 0; c < 3; c++)
+                    d[c] /= n;
             }
             feat[k++] = d[0];
             feat[k++] = d[1];

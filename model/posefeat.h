@@ -14,12 +14,16 @@
  *   alpha_j, the angles between successive edges (j > 1)                                 [Table 1]
  *   the position of m_p relative to the body origin (3)          [ours: eases linear regression]
  *   optionally d_{m_i}, the unit direction of movement of every marker (3 each)           [Table 1]
- *     (backward differences m(f) - m(f-1), so that live input needs no future frame)
+ *     (backward differences m(f) - m(f-1), so that live input needs no future frame; softly
+ *     normalised, v / sqrt(|v|^2 + eps^2) with eps = MDL_MOTION_EPS, so that it fades out for
+ *     movements at the scale of marker noise instead of turning noise into a unit vector)
  */
 #ifndef MESHSTEER_MODEL_POSEFEAT_H
 #define MESHSTEER_MODEL_POSEFEAT_H
 
 #include "model.h"
+
+#define MDL_MOTION_EPS 0.01 /* metres per frame */
 
 /* Body frame from marker positions P (nmarkers x 3). Returns -1 when degenerate. */
 int mdl__body_frame(const float *P, int nref, const int *ref, int axis, double R[9], double o[3]);

@@ -53,6 +53,8 @@ void mdl_train_opts_default(mdl_train_opts *o)
     o->linear = -1;
     o->relax = 4;
     o->align_samples = 16;
+    o->train_noise = 0;
+    o->noise_copies = 4;
     o->name = "model";
 }
 
@@ -146,7 +148,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
     uint8_t *mark = NULL, *gsel = NULL;
     double *dist = NULL, *bd = NULL, **pmodes = NULL, **psig = NULL;
     double *Fm = NULL, *Fv = NULL, *Xr = NULL, *Yr = NULL, *targets = NULL, *colw = NULL;
-    float *Pm = NULL;
+    float *Pm = NULL, *Pn = NULL;
 
     snprintf(m->name, sizeof m->name, "%s", opts->name ? opts->name : "model");
     m->nv = nv;
@@ -586,7 +588,17 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
             if (d > maxd)
                 maxd = d;
         }
-        int nsamp = markers ? FM : T;
+        /* with virtual markers, noisy copies of every training frame teach the regressions that
+         * marker noise of about train_noise metres should not move the result (data augmentation
+         * in place of a noise model): copy a > 0 of frame i has every marker jittered */
+        int copies = !markers && opts->train_noise > 0 ? opts->noise_copies : 0;
+        int nsamp = markers ? FM : T * (1 + copies);
+        if (copies) {
+            ALLOC(Pn, (size_t)T * copies * nm * 3);
+            uint64_t rng = 0x5eed5eedull;
+            for (size_t i = 0; i < (size_t)T * copies * nm * 3; i++)
+                Pn[i] = Pv[i % ((size_t)T * nm * 3)] + (float)(opts->train_noise * mdl__gauss(&rng));
+        }
         ALLOC(Fv, (size_t)T * maxd);
         ALLOC(Fm, (size_t)(FM > 0 ? FM : 1) * maxd);
         ALLOC(feat, maxd);
@@ -637,7 +649,21 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
                     rg->feat_scale[j] = 1;
                     rg->feat_shift[j] = 0;
                 }
-                memcpy(Xr, Fv, sizeof(double) * (size_t)T * d);
+                for (int j = 0; j < d; j++)
+                    memcpy(Xr + (size_t)j * nsamp, Fv + (size_t)j * T, sizeof(double) * (size_t)T);
+                for (int a = 0; a < copies; a++)
+                    for (int i = 0; i < T; i++) {
+                        const float *Pi = Pn + ((size_t)a * T + i) * nm * 3;
+                        double R[9], o[3];
+                        if (mdl__body_frame(Pi, m->nref, m->ref, m->axis_mesh, R, o)) {
+                            memcpy(R, Rb + 9 * i, sizeof R);
+                            memcpy(o, ob + 3 * i, sizeof o);
+                        }
+                        mdl__limb_features(Pi, i > 0 ? Pi - (size_t)nm * 3 : NULL, path, plen, R, o,
+                                           m->use_motion_dir, feat);
+                        for (int j = 0; j < d; j++)
+                            Xr[(size_t)j * nsamp + (size_t)(a + 1) * T + i] = feat[j];
+                    }
             }
             /* outputs: every instance of this limb: q (4), t (3), s (k) */
             int q = 0;
@@ -658,7 +684,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
                     continue;
                 int p = m->inst_part[i], k = m->pmodes[p];
                 for (int s = 0; s < nsamp; s++) {
-                    int f = markers ? lmap[s] : s;
+                    int f = markers ? lmap[s] : s % T;
                     const double *tg = targets + ((size_t)p * T + f) * tdim;
                     for (int c = 0; c < 7 + k; c++)
                         Yr[(size_t)(m->inst_out[i] + c) * nsamp + s] = tg[c];
@@ -941,6 +967,7 @@ out:
     free(colw);
     free(targets);
     free(Pm);
+    free(Pn);
     if (rc) {
         mdl__model_free(m);
         return rc;

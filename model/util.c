@@ -3,6 +3,7 @@
 #include "model.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -63,4 +64,23 @@ int mdl__read_file(const char *path, size_t max_bytes, char **buf, size_t *len, 
     *buf = b;
     *len = (size_t)size;
     return 0;
+}
+
+static uint64_t splitmix(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+double mdl__uniform(uint64_t *state)
+{
+    return ((double)(splitmix(state) >> 11) + 0.5) / 9007199254740992.0;
+}
+
+double mdl__gauss(uint64_t *state)
+{
+    double u = mdl__uniform(state), v = mdl__uniform(state);
+    return sqrt(-2 * log(u)) * cos(2 * M_PI * v);
 }

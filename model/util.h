@@ -17,4 +17,8 @@ int mdl__read_file(const char *path, size_t max_bytes, char **buf, size_t *len, 
 /* Overflow-checked allocation of n * size bytes, zeroed. Returns NULL on overflow or failure. */
 void *mdl__calloc(size_t n, size_t size);
 
+/* A reproducible random stream (splitmix64): uniform in (0, 1) and standard normal (Box-Muller). */
+double mdl__uniform(uint64_t *state);
+double mdl__gauss(uint64_t *state);
+
 #endif

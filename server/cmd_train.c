@@ -38,6 +38,8 @@ static const char usage_text[] =
     "  --marker-weight F  markers as alignment targets at synthesis (default: 1 with virtual\n"
     "                     markers, 0 with a recording of another subject)\n"
     "  --relax N          alignment sweeps against all neighbours after the greedy pass (default 4)\n"
+    "  --train-noise MM   with virtual markers: marker noise (mm) the regressions learn to\n"
+    "                     ignore from 4 noisy copies of each frame (default 0 = off)\n"
     "  --align-samples N  shared vertices per part used by alignment and shape steps (default\n"
     "                     16; 0 = all)\n" CLI_MARKER_OPTS_HELP;
 
@@ -50,7 +52,8 @@ int cmd_train(int argc, char **argv)
     mdl_marker_opts mo = {0, MDL_UP_AUTO};
     enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
            O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP, O_LINEAR,
-           O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF };
+           O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF, O_TNOISE };
+    double tnoise_mm = 0;
     static const struct option lo[] = {
         {"mesh", 1, 0, 'm'},          {"rest", 1, 0, O_REST},         {"rig", 1, 0, O_RIG},
         {"markers", 1, 0, O_MARKERS}, {"frames", 1, 0, O_FRAMES},     {"output", 1, 0, 'o'},
@@ -60,7 +63,7 @@ int cmd_train(int argc, char **argv)
         {"beta", 1, 0, O_BETA},       {"iterations", 1, 0, O_ITER},   {"motion-dir", 0, 0, O_MOTION},
         {"marker-scale", 1, 0, O_MSCALE}, {"marker-up", 1, 0, O_MUP}, {"help", 0, 0, 'h'},
         {"linear", 0, 0, O_LINEAR},   {"marker-weight", 1, 0, O_MWEIGHT}, {"relax", 1, 0, O_RELAX},
-        {"align-samples", 1, 0, O_SAMPLES}, {"rbf", 0, 0, O_RBF},
+        {"align-samples", 1, 0, O_SAMPLES}, {"rbf", 0, 0, O_RBF}, {"train-noise", 1, 0, O_TNOISE},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -86,6 +89,7 @@ int cmd_train(int argc, char **argv)
         case O_MOTION: o.use_motion_dir = 1; break;
         case O_LINEAR: o.linear = 1; break;
         case O_RBF: o.linear = 0; break;
+        case O_TNOISE: if (cli_parse_double(cmd, "--train-noise", optarg, &tnoise_mm)) return CLI_EXIT_USAGE; break;
         case O_MWEIGHT: if (cli_parse_double(cmd, "--marker-weight", optarg, &o.marker_weight)) return CLI_EXIT_USAGE; break;
         case O_RELAX: if (cli_parse_int(cmd, "--relax", optarg, &o.relax)) return CLI_EXIT_USAGE; break;
         case O_SAMPLES: if (cli_parse_int(cmd, "--align-samples", optarg, &o.align_samples)) return CLI_EXIT_USAGE; break;
@@ -107,6 +111,9 @@ int cmd_train(int argc, char **argv)
         o.max_modes < 0 || o.max_modes > 64 || !(o.beta >= 0) || o.iterations < 0 || o.iterations > 100 ||
         o.relax < 0 || o.relax > 100 || o.align_samples < 0 || !(o.marker_weight >= 0 || o.marker_weight == -1))
         return cli_usage_error(cmd, "an option is out of range (see --help)");
+    if (!(tnoise_mm >= 0 && tnoise_mm < 1000))
+        return cli_usage_error(cmd, "--train-noise must be within 0..1000 mm");
+    o.train_noise = tnoise_mm / 1000.0;
     if (o.ridge != -1 && !(o.ridge >= 0))
         return cli_usage_error(cmd, "--ridge must be >= 0");
 
