@@ -129,3 +129,21 @@ int cli_parse_up(const char *s)
             return t[i].up;
     return -1;
 }
+
+int cli_marker_option(const char *cmd, const char *opt, const char *arg, mdl_marker_opts *mo)
+{
+    if (!strcmp(opt, "marker-scale")) {
+        if (cli_parse_double(cmd, "--marker-scale", arg, &mo->scale))
+            return -1;
+        if (!(mo->scale > 0)) {
+            cli_usage_error(cmd, "--marker-scale must be positive");
+            return -1;
+        }
+        return 0;
+    }
+    if ((mo->up = cli_parse_up(arg)) < 0) {
+        cli_usage_error(cmd, "--marker-up: '%s' is not one of x y z -x -y -z", arg);
+        return -1;
+    }
+    return 0;
+}

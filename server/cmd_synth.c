@@ -147,10 +147,10 @@ int cmd_synth(int argc, char **argv)
         case O_OBJDIR: objdir = optarg; break;
         case O_FRAMES: frames = optarg; break;
         case O_JSON: json = 1; break;
-        case O_MSCALE: if (cli_parse_double(cmd, "--marker-scale", optarg, &mo.scale)) return CLI_EXIT_USAGE; break;
+        case O_MSCALE:
         case O_MUP:
-            if ((mo.up = cli_parse_up(optarg)) < 0)
-                return cli_usage_error(cmd, "--marker-up: '%s' is not one of x y z -x -y -z", optarg);
+            if (cli_marker_option(cmd, c == O_MSCALE ? "marker-scale" : "marker-up", optarg, &mo))
+                return CLI_EXIT_USAGE;
             break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
         default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;

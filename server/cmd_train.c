@@ -93,10 +93,10 @@ int cmd_train(int argc, char **argv)
         case O_MWEIGHT: if (cli_parse_double(cmd, "--marker-weight", optarg, &o.marker_weight)) return CLI_EXIT_USAGE; break;
         case O_RELAX: if (cli_parse_int(cmd, "--relax", optarg, &o.relax)) return CLI_EXIT_USAGE; break;
         case O_SAMPLES: if (cli_parse_int(cmd, "--align-samples", optarg, &o.align_samples)) return CLI_EXIT_USAGE; break;
-        case O_MSCALE: if (cli_parse_double(cmd, "--marker-scale", optarg, &mo.scale)) return CLI_EXIT_USAGE; break;
+        case O_MSCALE:
         case O_MUP:
-            if ((mo.up = cli_parse_up(optarg)) < 0)
-                return cli_usage_error(cmd, "--marker-up: '%s' is not one of x y z -x -y -z", optarg);
+            if (cli_marker_option(cmd, c == O_MSCALE ? "marker-scale" : "marker-up", optarg, &mo))
+                return CLI_EXIT_USAGE;
             break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
         default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
