@@ -204,7 +204,7 @@ void mdl_model_get_info(const mdl_model *m, mdl_model_info *info);
 /* Writes a human-readable summary (what `meshsteer inspect` prints) into buf. */
 int mdl_model_describe(const mdl_model *m, char *buf, size_t len);
 
-/* Writes the training report (JSON) into a newly allocated string; free() it. */
+/* The training report (JSON) as a newly allocated string (cJSON_Print; free() it), or NULL. */
 char *mdl_model_report_json(const mdl_model *m);
 
 /* Maps source labels to model markers: map[i] = index into `names` of model marker i, or -1. */

@@ -104,6 +104,11 @@ struct mdl_model {
 
     /* per limb: control-point path (eq. 2) as parts along the path, and the regression */
     int *lpath_off, *lpath;  /* parts on the path from the first to the last marker of each limb */
+    double *lctrl;           /* control points of eq. (2) per limb, rest pose: the first marker's
+                                vertex, the virtual joints gamma(e) at the barycentres of the
+                                intersections of successive parts, the last marker's vertex;
+                                limb l has lpath_off[l+1] - lpath_off[l] + 1 points at
+                                3 * (lpath_off[l] + l) */
     mdl_limb_reg *reg;       /* nlimbs */
 
     /* greedy rigid alignment order (Sec. 5.1) and the overlap of each step with what is placed */

@@ -11,6 +11,8 @@
 #include "model_internal.h"
 #include "util.h"
 
+#include <cjson/cJSON.h>
+
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -46,6 +48,7 @@ void mdl__model_free(struct mdl_model *m)
     free(m->inst_shared);
     free(m->lpath_off);
     free(m->lpath);
+    free(m->lctrl);
     if (m->reg)
         for (int l = 0; l < m->nlimbs; l++) {
             free(m->reg[l].feat_scale);
@@ -220,6 +223,7 @@ int mdl_model_save(const mdl_model *m, const char *path, char *err)
     put_i32s(&b, m->inst_shared, (size_t)NI);
     put_i32s(&b, m->lpath_off, (size_t)L + 1);
     put_i32s(&b, m->lpath, (size_t)m->lpath_off[L]);
+    put_f64s(&b, m->lctrl, 3 * ((size_t)m->lpath_off[L] + L));
     for (int l = 0; l < L; l++) {
         const mdl_limb_reg *r = &m->reg[l];
         put_u32(&b, (uint32_t)r->nin);
@@ -615,6 +619,7 @@ int mdl_model_parse(const uint8_t *buf, size_t len, const char *name, mdl_model 
     if (check_offsets(&b, m->lpath_off, L, "lpath_off"))
         goto bad;
     m->lpath = get_ints(&b, (size_t)m->lpath_off[L], "lpath", 0, P - 1);
+    m->lctrl = get_f64s(&b, 3 * ((size_t)m->lpath_off[L] + L), "control points");
     m->reg = mdl__calloc((size_t)L, sizeof *m->reg);
     if (!m->reg)
         goto oom;
@@ -842,6 +847,7 @@ int mdl_model_describe(const mdl_model *m, char *buf, size_t len)
         APPEND("  path in H:");
         for (int j = m->lpath_off[l]; j < m->lpath_off[l + 1]; j++)
             APPEND(" %d", m->lpath[j]);
+        APPEND(", %d control points", m->lpath_off[l + 1] - m->lpath_off[l] + 1);
         APPEND("  regression: %d (+%d rbf) -> %d, ridge %g, residual %.3f (leave-one-out %.3f)\n",
                m->reg[l].nin, m->reg[l].ncent, m->reg[l].nout, m->reg[l].ridge, m->reg[l].rms_train,
                m->reg[l].rms_loo);
@@ -854,43 +860,52 @@ int mdl_model_describe(const mdl_model *m, char *buf, size_t len)
 
 char *mdl_model_report_json(const mdl_model *m)
 {
-    size_t len = 4096 + (size_t)m->nparts * 160 + (size_t)m->nlimbs * 200;
-    char *buf = malloc(len);
-    if (!buf)
+    cJSON *o = cJSON_CreateObject();
+    if (!o)
         return NULL;
-    size_t at = 0;
-    APPEND("{\n  \"model\": \"%s\",\n  \"vertices\": %d,\n  \"triangles\": %d,\n", m->name, m->nv,
-           m->nf);
-    APPEND("  \"training_frames\": %d,\n  \"training_seconds\": %.3f,\n", m->ntrain, m->train_seconds);
-    APPEND("  \"virtual_markers\": %s,\n  \"clusters\": %d,\n  \"instances\": %d,\n",
-           m->virtual_markers ? "true" : "false", m->nparts, m->ninst);
-    APPEND("  \"parts\": [\n");
+    cJSON_AddStringToObject(o, "model", m->name);
+    cJSON_AddNumberToObject(o, "vertices", m->nv);
+    cJSON_AddNumberToObject(o, "triangles", m->nf);
+    cJSON_AddNumberToObject(o, "training_frames", m->ntrain);
+    cJSON_AddNumberToObject(o, "training_seconds", m->train_seconds);
+    cJSON_AddBoolToObject(o, "virtual_markers", m->virtual_markers);
+    cJSON_AddNumberToObject(o, "clusters", m->nparts);
+    cJSON_AddNumberToObject(o, "instances", m->ninst);
+    cJSON *parts = cJSON_AddArrayToObject(o, "parts");
     for (int p = 0; p < m->nparts; p++) {
         int core = 0;
         for (int v = 0; v < m->nv; v++)
             core += m->part[v] == p;
-        APPEND("    {\"part\": %d, \"vertices\": %d, \"with_overlap\": %d, \"modes\": %d, "
-               "\"explained_variance\": %.5f, \"rigid_rms\": %.6f}%s\n",
-               p, core, m->pv_off[p + 1] - m->pv_off[p], m->pmodes[p], m->part_explained[p],
-               m->part_rms[p], p + 1 < m->nparts ? "," : "");
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddNumberToObject(e, "part", p);
+        cJSON_AddNumberToObject(e, "vertices", core);
+        cJSON_AddNumberToObject(e, "with_overlap", m->pv_off[p + 1] - m->pv_off[p]);
+        cJSON_AddNumberToObject(e, "modes", m->pmodes[p]);
+        cJSON_AddNumberToObject(e, "explained_variance", m->part_explained[p]);
+        cJSON_AddNumberToObject(e, "rigid_rms", m->part_rms[p]);
+        cJSON_AddItemToArray(parts, e);
     }
-    APPEND("  ],\n  \"limbs\": [\n");
+    cJSON *limbs = cJSON_AddArrayToObject(o, "limbs");
     for (int l = 0; l < m->nlimbs; l++) {
-        APPEND("    {\"markers\": [");
+        cJSON *e = cJSON_CreateObject(), *mk = cJSON_AddArrayToObject(e, "markers");
         for (int j = m->limb_off[l]; j < m->limb_off[l + 1]; j++)
-            APPEND("%s\"%s\"", j > m->limb_off[l] ? ", " : "", m->markers[m->limb_idx[j]].name);
-        APPEND("], \"path_parts\": [");
+            cJSON_AddItemToArray(mk, cJSON_CreateString(m->markers[m->limb_idx[j]].name));
+        cJSON *path = cJSON_AddArrayToObject(e, "path_parts");
         for (int j = m->lpath_off[l]; j < m->lpath_off[l + 1]; j++)
-            APPEND("%s%d", j > m->lpath_off[l] ? ", " : "", m->lpath[j]);
-        APPEND("], \"inputs\": %d, \"outputs\": %d, \"ridge\": %g, \"residual\": %.5f, "
-               "\"residual_loo\": %.5f}%s\n",
-               m->reg[l].nin, m->reg[l].nout, m->reg[l].ridge, m->reg[l].rms_train,
-               m->reg[l].rms_loo, l + 1 < m->nlimbs ? "," : "");
+            cJSON_AddItemToArray(path, cJSON_CreateNumber(m->lpath[j]));
+        cJSON *cp = cJSON_AddArrayToObject(e, "control_points");
+        const double *c = m->lctrl + 3 * ((size_t)m->lpath_off[l] + l);
+        for (int j = 0; j <= m->lpath_off[l + 1] - m->lpath_off[l]; j++)
+            cJSON_AddItemToArray(cp, cJSON_CreateDoubleArray(c + 3 * j, 3));
+        cJSON_AddNumberToObject(e, "inputs", m->reg[l].nin);
+        cJSON_AddNumberToObject(e, "rbf_centres", m->reg[l].ncent);
+        cJSON_AddNumberToObject(e, "outputs", m->reg[l].nout);
+        cJSON_AddNumberToObject(e, "ridge", m->reg[l].ridge);
+        cJSON_AddNumberToObject(e, "residual", m->reg[l].rms_train);
+        cJSON_AddNumberToObject(e, "residual_loo", m->reg[l].rms_loo);
+        cJSON_AddItemToArray(limbs, e);
     }
-    APPEND("  ]\n}\n");
-    if (at >= len) {
-        free(buf);
-        return NULL;
-    }
-    return buf;
+    char *js = cJSON_Print(o);
+    cJSON_Delete(o);
+    return js;
 }

@@ -356,6 +356,32 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
         }
         m->lpath_off[L] = n;
     }
+    /* control points (eq. 2): marker vertex, virtual joints, marker vertex */
+    ALLOC(m->lctrl, 3 * ((size_t)m->lpath_off[L] + L));
+    for (int l = 0; l < L; l++) {
+        double *c = m->lctrl + 3 * ((size_t)m->lpath_off[l] + l);
+        int a0 = m->limb_idx[m->limb_off[l]], a1 = m->limb_idx[m->limb_off[l + 1] - 1], k = 1;
+        for (int x = 0; x < 3; x++)
+            c[x] = m->rest[3 * m->markers[a0].vertex + x];
+        for (int i = m->lpath_off[l]; i + 1 < m->lpath_off[l + 1]; i++, k++) {
+            /* gamma(e): barycentre of the vertices where the two parts (with overlaps) meet */
+            int pa = m->lpath[i], pb = m->lpath[i + 1], cnt = 0;
+            double g[3] = {0, 0, 0};
+            memset(mark, 0, (size_t)nv);
+            for (int j = m->pv_off[pa]; j < m->pv_off[pa + 1]; j++)
+                mark[m->pv_idx[j]] = 1;
+            for (int j = m->pv_off[pb]; j < m->pv_off[pb + 1]; j++)
+                if (mark[m->pv_idx[j]]) {
+                    for (int x = 0; x < 3; x++)
+                        g[x] += m->rest[3 * m->pv_idx[j] + x];
+                    cnt++;
+                }
+            for (int x = 0; x < 3; x++)
+                c[3 * k + x] = cnt ? g[x] / cnt : 0.5 * (c[3 * (k - 1) + x] + m->rest[3 * m->markers[a1].vertex + x]);
+        }
+        for (int x = 0; x < 3; x++)
+            c[3 * k + x] = m->rest[3 * m->markers[a1].vertex + x];
+    }
     /* 4. parts off every path join the nearest limb in H (BFS from all path parts) */
     ALLOC(nearest, P);
     {
