@@ -19,12 +19,16 @@ extern const drv_source_ops drv_replay_ops;
 
 /* depth cameras and depth->markers (depth/) */
 extern const drv_source_ops drv_fakenect_ops;
+extern const drv_source_ops drv_v4l2_ops;
+extern const drv_source_ops drv_openni2_ops;
 
 static const drv_source_ops *const registry[] = {
     /* replay of marker files */
     &drv_replay_ops,
     /* depth cameras and depth->markers */
     &drv_fakenect_ops,
+    &drv_v4l2_ops,
+    &drv_openni2_ops,
     NULL,
 };
 

@@ -18,6 +18,7 @@ int cmd_markers(int argc, char **argv);
 
 /* depth commands (cmd_depth_eval.c) */
 int cmd_depth_eval(int argc, char **argv);
+int cmd_kinect(int argc, char **argv); /* cmd_kinect.c */
 int cmd_render(int argc, char **argv);
 int cmd_example(int argc, char **argv);
 
@@ -37,6 +38,7 @@ static const cli_command commands[] = {
 
     /* depth commands */
     {"depth-eval", "score depth->markers on a mesh sequence seen by the test camera", cmd_depth_eval},
+    {"kinect", "Kinect v1 tilt and LED; list or watch depth sensors on USB", cmd_kinect},
 
     {NULL, NULL, NULL},
 };

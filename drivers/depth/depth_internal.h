@@ -48,7 +48,8 @@ typedef struct drv__extremum {
     float geodesic;   /* metres from the nearest earlier source when found */
     float tip[3];     /* mean of the cells within tip_radius of it */
     float anchor[3];  /* the point half-way back along its shortest path (limb root side) */
-    int border;       /* 1 when within 2.5% of the image border (likely a cut, not an extremity) */
+    int border;       /* within 2.5% of the image border (likely a cut, not an extremity): 1 at the
+                         top or a side, 2 at the bottom only (a foot standing below the view) */
 } drv__extremum;
 
 typedef struct drv__geodesic {

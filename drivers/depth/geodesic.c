@@ -200,7 +200,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         x->geodesic = de;
         int gx = e % g->gw, gy = e / g->gw;
         int bx = g->gw / 40 + 1, by = g->gh / 40 + 1; /* 2.5% of the image, at least a cell */
-        x->border = gx < bx || gy < by || gx >= g->gw - bx || gy >= g->gh - by;
+        x->border = gx < bx || gy < by || gx >= g->gw - bx ? 1 : gy >= g->gh - by ? 2 : 0;
         int a = e, guard = g->ncells;
         while (ge->parent[a] >= 0 && ge->dist[a] > 0.5f * de && guard-- > 0)
             a = ge->parent[a];

@@ -20,6 +20,7 @@
 #include <string.h>
 
 #define MISS 2.5f
+#define FOOT_CUT 0.3f /* a foot whose tip reaches the bottom of the image */
 #define NL 5
 #define MAXE DRV_DEPTH_MAX_EXTREMA
 
@@ -82,9 +83,9 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
             float sg = side == 0 ? 1.f : -1.f;
             s.cost[1 + side][e] =
                 pos(-sg * la) / 0.04f + pos(-0.6f - h) / 0.1f + pos(0.4f - g) / 0.1f + b;
-            s.cost[3 + side][e] = h < -0.55f && !x->border
+            s.cost[3 + side][e] = h < -0.55f && x->border != 1
                                       ? pos(-sg * la) / 0.04f + pos(h + 0.75f) / 0.1f +
-                                            pos(0.7f - g) / 0.1f
+                                            pos(0.7f - g) / 0.1f + (x->border ? FOOT_CUT : 0.f)
                                       : FLT_MAX;
         }
         if (prev) {

@@ -43,7 +43,7 @@ void drv_depth_opts_default(drv_depth_opts *o)
     o->jump_penalty = 0.5f;
     o->floor = 1;
     o->floor_iters = 48;
-    o->floor_tol = 0.04f;
+    o->floor_tol = 0.025f;
     o->floor_max_tilt = 35.f;
     o->min_area = 0.04f;
     o->max_extrema = 7;

@@ -1,0 +1,400 @@
+/* openni2.c - the openni2: source: OpenNI2 C API device/stream handling, depth mode choice,
+ * intrinsics from the field of view, device-to-monotonic time mapping, loss detection; depth is
+ * turned into markers by drv_depth_tracker (markers.c). Behaviour as described in openni2.h. */
+#include "openni2.h"
+
+#include "oni_c.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static int fail(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int fail(char *err, int code, const char *fmt, ...)
+{
+    if (err) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, DRV_ERR_LEN, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+static uint64_t now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+/* OpenNI2's last error without its tabs and newlines */
+static const char *oni_why(char buf[256])
+{
+    const char *e = oniGetExtendedError();
+    size_t n = 0;
+    for (; e && *e && n < 255; e++)
+        if (*e == '\n' || *e == '\t' || *e == '\r') {
+            if (n && buf[n - 1] != ' ')
+                buf[n++] = ' ';
+        } else {
+            buf[n++] = *e;
+        }
+    while (n && buf[n - 1] == ' ')
+        n--;
+    buf[n] = '\0';
+    return buf;
+}
+
+uint64_t drv_clock_map_apply(drv_clock_map *m, uint64_t dev_us, uint64_t host_us)
+{
+    int64_t off = (int64_t)host_us - (int64_t)dev_us;
+    if (!m->init || dev_us < m->last_dev || off < m->offset || off - m->offset > 100000) {
+        m->offset = off;
+        m->init = 1;
+    }
+    m->last_dev = dev_us;
+    int64_t t = (int64_t)dev_us + m->offset;
+    return t < 0 ? 0 : (uint64_t)t;
+}
+
+/* ------------------------------------------------------------------ the source */
+
+typedef struct oni_src {
+    char uri[1024];
+    char dev_uri[ONI_MAX_STR];   /* the opened device's URI, for the callbacks */
+    int want_w, want_h, want_fps, loop;
+    int initialized;
+    OniDeviceHandle dev;
+    OniStreamHandle stream;
+    OniCallbackHandle cb;
+    int cb_registered;
+    atomic_int lost;
+    OniVideoMode mode;
+    drv_intrinsics k;
+    drv_depth_tracker *trk;
+    uint16_t *mm;
+    drv_clock_map clock;
+    uint64_t seq;
+} oni_src;
+
+static int uri_matches(const oni_src *o, const OniDeviceInfo *info)
+{
+    return info && !strncmp(o->dev_uri, info->uri, sizeof o->dev_uri);
+}
+
+static void ONI_CALLBACK_TYPE on_disconnected(const OniDeviceInfo *info, void *cookie)
+{
+    oni_src *o = cookie;
+    if (uri_matches(o, info))
+        atomic_store(&o->lost, 1);
+}
+
+static void ONI_CALLBACK_TYPE on_connected(const OniDeviceInfo *info, void *cookie)
+{
+    (void)info;
+    (void)cookie;
+}
+
+static void ONI_CALLBACK_TYPE on_state(const OniDeviceInfo *info, OniDeviceState st, void *cookie)
+{
+    oni_src *o = cookie;
+    if (st == ONI_DEVICE_STATE_ERROR && uri_matches(o, info))
+        atomic_store(&o->lost, 1);
+}
+
+static void oni_free(oni_src *o)
+{
+    if (!o)
+        return;
+    if (o->stream) {
+        oniStreamStop(o->stream);
+        oniStreamDestroy(o->stream);
+    }
+    if (o->cb_registered)
+        oniUnregisterDeviceCallbacks(o->cb);
+    if (o->dev)
+        oniDeviceClose(o->dev);
+    if (o->initialized)
+        oniShutdown();
+    drv_depth_tracker_destroy(o->trk);
+    free(o->mm);
+    free(o);
+}
+
+static int parse_opts(oni_src *o, const char *q, char *err)
+{
+    char buf[256];
+    if (strlen(q) >= sizeof buf)
+        return fail(err, -EINVAL, "openni2: options too long");
+    strcpy(buf, q);
+    char *save = NULL;
+    for (char *kv = strtok_r(buf, "&", &save); kv; kv = strtok_r(NULL, "&", &save)) {
+        char *eq = strchr(kv, '=');
+        if (!eq)
+            return fail(err, -EINVAL, "openni2: option '%s': expected key=value", kv);
+        *eq = '\0';
+        char *end;
+        long v = strtol(eq + 1, &end, 10);
+        if (*end || end == eq + 1)
+            return fail(err, -EINVAL, "openni2: option %s: '%s' is not a number", kv, eq + 1);
+        if (!strcmp(kv, "width") && v >= 16 && v <= 4096)
+            o->want_w = (int)v;
+        else if (!strcmp(kv, "height") && v >= 16 && v <= 4096)
+            o->want_h = (int)v;
+        else if (!strcmp(kv, "fps") && v >= 1 && v <= 1000)
+            o->want_fps = (int)v;
+        else if (!strcmp(kv, "loop") && (v == 0 || v == 1))
+            o->loop = (int)v;
+        else
+            return fail(err, -EINVAL,
+                        "openni2: option %s=%ld unknown or out of range (width, height, fps, loop)",
+                        kv, v);
+    }
+    return 0;
+}
+
+static int is_depth_format(OniPixelFormat f)
+{
+    return f == ONI_PIXEL_FORMAT_DEPTH_1_MM || f == ONI_PIXEL_FORMAT_DEPTH_100_UM;
+}
+
+/* the supported depth mode nearest to the wish (size first, then rate; 1 mm pixels preferred) */
+static int choose_mode(const OniSensorInfo *si, int w, int h, int fps, OniVideoMode *out)
+{
+    double best = INFINITY;
+    for (int i = 0; si && i < si->numSupportedVideoModes; i++) {
+        const OniVideoMode *m = &si->pSupportedVideoModes[i];
+        if (!is_depth_format(m->pixelFormat))
+            continue;
+        double c = fabs(log((double)m->resolutionX / w)) * 10 + fabs(log((double)m->resolutionY / h)) * 10 +
+                   fabs((double)m->fps - fps) / fps + (m->pixelFormat == ONI_PIXEL_FORMAT_DEPTH_1_MM ? 0 : 0.01);
+        if (c < best) {
+            best = c;
+            *out = *m;
+        }
+    }
+    return isfinite(best) ? 0 : -1;
+}
+
+static int oni_open(drv_source *s, const char *arg, char *err)
+{
+    char why[256];
+    oni_src *o = calloc(1, sizeof *o);
+    if (!o)
+        return fail(err, -ENOMEM, "openni2: out of memory");
+    o->want_w = 640;
+    o->want_h = 480;
+    o->want_fps = 30;
+    o->loop = 1;
+    const char *hash = strchr(arg, '#');
+    size_t ul = hash ? (size_t)(hash - arg) : strlen(arg);
+    int r;
+    if (ul >= sizeof o->uri) {
+        free(o);
+        return fail(err, -ENAMETOOLONG, "openni2: URI too long");
+    }
+    memcpy(o->uri, arg, ul);
+    o->uri[ul] = '\0';
+    const char *name = ul ? o->uri : "(any device)";
+    if (hash && (r = parse_opts(o, hash + 1, err))) {
+        free(o);
+        return r;
+    }
+    atomic_init(&o->lost, 0);
+    if (oniInitialize(ONI_API_VERSION) != ONI_STATUS_OK) {
+        r = fail(err, -EIO, "openni2: initialise: %s", oni_why(why));
+        oni_free(o);
+        return r;
+    }
+    o->initialized = 1;
+    OniStatus st = oniDeviceOpen(ul ? o->uri : NULL, &o->dev);
+    if (st != ONI_STATUS_OK) {
+        o->dev = NULL;
+        char wb[256];
+        const char *why = oni_why(wb);
+        r = fail(err, -ENODEV, "openni2 %s: cannot open: %s", name,
+                 *why ? why : "no such device (is it plugged in, and is its driver in "
+                                     "OpenNI2's driver directory?)");
+        oni_free(o);
+        return r;
+    }
+    OniDeviceInfo di;
+    if (oniDeviceGetInfo(o->dev, &di) == ONI_STATUS_OK)
+        memcpy(o->dev_uri, di.uri, sizeof o->dev_uri);
+    o->dev_uri[sizeof o->dev_uri - 1] = '\0';
+    OniDeviceCallbacks cbs = {on_connected, on_disconnected, on_state};
+    if (oniRegisterDeviceCallbacks(&cbs, o, &o->cb) == ONI_STATUS_OK)
+        o->cb_registered = 1;
+    const OniSensorInfo *si = oniDeviceGetSensorInfo(o->dev, ONI_SENSOR_DEPTH);
+    if (!si) {
+        r = fail(err, -ENOTSUP, "openni2 %s: the device has no depth sensor", name);
+        oni_free(o);
+        return r;
+    }
+    if (oniDeviceCreateStream(o->dev, ONI_SENSOR_DEPTH, &o->stream) != ONI_STATUS_OK) {
+        o->stream = NULL;
+        r = fail(err, -EIO, "openni2 %s: cannot create the depth stream: %s", name,
+                 oni_why(why));
+        oni_free(o);
+        return r;
+    }
+    OniVideoMode cur, want;
+    int sz = sizeof cur;
+    if (oniStreamGetProperty(o->stream, ONI_STREAM_PROPERTY_VIDEO_MODE, &cur, &sz) != ONI_STATUS_OK)
+        memset(&cur, 0, sizeof cur);
+    if (choose_mode(si, o->want_w, o->want_h, o->want_fps, &want) == 0 &&
+        memcmp(&want, &cur, sizeof want) != 0) {
+        if (oniStreamSetProperty(o->stream, ONI_STREAM_PROPERTY_VIDEO_MODE, &want, sizeof want) !=
+            ONI_STATUS_OK) {
+            r = fail(err, -ENOTSUP, "openni2 %s: cannot set depth mode %dx%d@%d: %s", name,
+                     want.resolutionX, want.resolutionY, want.fps, oni_why(why));
+            oni_free(o);
+            return r;
+        }
+        cur = want;
+    }
+    sz = sizeof o->mode;
+    if (oniStreamGetProperty(o->stream, ONI_STREAM_PROPERTY_VIDEO_MODE, &o->mode, &sz) !=
+        ONI_STATUS_OK)
+        o->mode = cur;
+    if (!is_depth_format(o->mode.pixelFormat) || o->mode.resolutionX < 16 ||
+        o->mode.resolutionY < 16 || o->mode.resolutionX > 4096 || o->mode.resolutionY > 4096) {
+        r = fail(err, -ENOTSUP, "openni2 %s: depth mode %dx%d with pixel format %d is not usable "
+                 "(want 1 mm or 100 um depth)", name, o->mode.resolutionX, o->mode.resolutionY,
+                 (int)o->mode.pixelFormat);
+        oni_free(o);
+        return r;
+    }
+    OniBool mirror = 0;
+    if (oniStreamIsPropertySupported(o->stream, ONI_STREAM_PROPERTY_MIRRORING))
+        oniStreamSetProperty(o->stream, ONI_STREAM_PROPERTY_MIRRORING, &mirror, sizeof mirror);
+    if (oniDeviceIsPropertySupported(o->dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED)) {
+        OniBool rep = o->loop ? 1 : 0;
+        oniDeviceSetProperty(o->dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep, sizeof rep);
+    }
+    float hfov = 0, vfov = 0;
+    sz = sizeof hfov;
+    oniStreamGetProperty(o->stream, ONI_STREAM_PROPERTY_HORIZONTAL_FOV, &hfov, &sz);
+    sz = sizeof vfov;
+    oniStreamGetProperty(o->stream, ONI_STREAM_PROPERTY_VERTICAL_FOV, &vfov, &sz);
+    int w = o->mode.resolutionX, h = o->mode.resolutionY;
+    drv_intrinsics_kinect1(&o->k);
+    o->k.width = w;
+    o->k.height = h;
+    /* a device that reports no field of view: the Kinect's (58.5 x 45.6 degrees) */
+    o->k.fx = hfov > 0.1f && hfov < 3.0f ? 0.5 * w / tan(0.5 * hfov) : 580.0 * w / 640.0;
+    o->k.fy = vfov > 0.1f && vfov < 3.0f ? 0.5 * h / tan(0.5 * vfov) : 580.0 * h / 480.0;
+    o->k.cx = (w - 1) * 0.5;
+    o->k.cy = (h - 1) * 0.5;
+    drv_depth_opts d;
+    drv_depth_opts_default(&d);
+    d.k = o->k;
+    d.step = w >= 640 ? 4 : w >= 320 ? 2 : 1;
+    if (!(o->mm = malloc((size_t)w * h * sizeof *o->mm))) {
+        oni_free(o);
+        return fail(err, -ENOMEM, "openni2 %s: out of memory", name);
+    }
+    if ((r = drv_depth_tracker_create(&d, &o->trk, err))) {
+        oni_free(o);
+        return r;
+    }
+    s->impl = o;
+    s->count = DRV_DEPTH_NLABELS;
+    s->names = (const char **)drv_depth_label_names;
+    s->fps = o->mode.fps > 0 ? o->mode.fps : 30;
+    return 0;
+}
+
+static int oni_start(drv_source *s, char *err)
+{
+    char why[256];
+    oni_src *o = s->impl;
+    drv_depth_tracker_reset(o->trk);
+    memset(&o->clock, 0, sizeof o->clock);
+    if (oniStreamStart(o->stream) != ONI_STATUS_OK)
+        return fail(err, atomic_load(&o->lost) ? DRV_ELOST : -EIO,
+                    "openni2 %s: cannot start the depth stream: %s", o->uri, oni_why(why));
+    return 0;
+}
+
+static int oni_read(drv_source *s, drv_frame *fr, int timeout_ms, char *err)
+{
+    char why[256];
+    oni_src *o = s->impl;
+    if (atomic_load(&o->lost))
+        return fail(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
+    int idx = -1;
+    OniStatus st = oniWaitForAnyStream(&o->stream, 1, &idx,
+                                       timeout_ms < 0 ? -1 /* ONI_TIMEOUT_FOREVER */ : timeout_ms);
+    if (atomic_load(&o->lost))
+        return fail(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
+    if (st == ONI_STATUS_TIME_OUT)
+        return DRV_ETIMEOUT;
+    if (st != ONI_STATUS_OK)
+        return fail(err, DRV_ELOST, "openni2 %s: waiting for depth: %s", o->uri,
+                    oni_why(why));
+    OniFrame *f = NULL;
+    if (oniStreamReadFrame(o->stream, &f) != ONI_STATUS_OK || !f)
+        return fail(err, DRV_ELOST, "openni2 %s: reading depth: %s", o->uri, oni_why(why));
+    uint64_t host = now_us();
+    int w = o->k.width, h = o->k.height;
+    int r = 0;
+    if (f->sensorType != ONI_SENSOR_DEPTH || f->width != w || f->height != h || !f->data ||
+        f->stride < 2 * w || (size_t)f->dataSize < (size_t)f->stride * (size_t)(h - 1) + 2u * w ||
+        !is_depth_format(f->videoMode.pixelFormat)) {
+        r = fail(err, -EPROTO, "openni2 %s: frame %d is %dx%d (stride %d, %d bytes), expected "
+                 "%dx%d depth", o->uri, f->frameIndex, f->width, f->height, f->stride, f->dataSize,
+                 w, h);
+        oniFrameRelease(f);
+        return r;
+    }
+    const int um100 = f->videoMode.pixelFormat == ONI_PIXEL_FORMAT_DEPTH_100_UM;
+    for (int y = 0; y < h; y++) {
+        const uint16_t *row = (const uint16_t *)((const uint8_t *)f->data + (size_t)y * f->stride);
+        uint16_t *out = o->mm + (size_t)y * w;
+        if (um100)
+            for (int x = 0; x < w; x++)
+                out[x] = (uint16_t)((row[x] + 5) / 10);
+        else
+            memcpy(out, row, (size_t)w * sizeof *out);
+    }
+    uint64_t t = drv_clock_map_apply(&o->clock, f->timestamp, host);
+    oniFrameRelease(f);
+    drv_depth_result res;
+    drv_depth_tracker_process(o->trk, o->mm, t, &res);
+    for (int l = 0; l < DRV_DEPTH_NLABELS; l++) {
+        memcpy(fr->xyz + 3 * l, res.xyz[l], 3 * sizeof(float));
+        fr->valid[l] = res.valid[l];
+    }
+    fr->seq = o->seq++;
+    fr->t_capture_us = t;
+    return 0;
+}
+
+static void oni_stop(drv_source *s)
+{
+    oni_src *o = s->impl;
+    oniStreamStop(o->stream);
+}
+
+static void oni_close(drv_source *s)
+{
+    oni_free(s->impl);
+    s->impl = NULL;
+}
+
+const drv_source_ops drv_openni2_ops = {
+    .scheme = "openni2",
+    .open = oni_open,
+    .start = oni_start,
+    .read = oni_read,
+    .control = NULL,
+    .stop = oni_stop,
+    .close = oni_close,
+};

@@ -1,0 +1,183 @@
+/* test_openni2.c - the openni2: source through OpenNI2's own library and our driver plugin
+ * (drivers/depth/oni_testcam.c): Debian's libOpenNI2 finds drivers only in "OpenNI2/Drivers" next
+ * to the libOpenNI2.so.0 it was loaded from (names *.so.0; the ini path /etc/openni2/OpenNI.ini is
+ * fixed), so the test stages a copy of the library with our plugin beside it, re-executes itself
+ * with LD_LIBRARY_PATH pointing there, then: streams markers from a fakenect dump of real Kinect
+ * frames served by the plugin, sees the device vanish (DRV_ELOST), reopens it (recovery), and
+ * checks the device-to-monotonic clock mapping and the error for a missing device. */
+#include "depth/fakenect.h"
+#include "depth/oni_c.h"
+#include "depth/openni2.h"
+#include "test.h"
+
+#include <dlfcn.h>
+#include <errno.h>
+#include <time.h>
+#include <unistd.h>
+
+static void copy_file(const char *from, const char *to)
+{
+    FILE *a = fopen(from, "rb"), *b = fopen(to, "wb");
+    ASSERT(a && b);
+    char buf[65536];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, a)) > 0)
+        ASSERT_INT_EQ(fwrite(buf, 1, n, b), n);
+    fclose(a);
+    ASSERT_INT_EQ(fclose(b), 0);
+}
+
+static uint64_t now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+static char stage[4096];
+
+static void unstage(void)
+{
+    char p[4400];
+    snprintf(p, sizeof p, "%s/OpenNI2/Drivers/libMeshsteerTestCam.so.0", stage);
+    unlink(p);
+    snprintf(p, sizeof p, "%s/OpenNI2/Drivers", stage);
+    rmdir(p);
+    snprintf(p, sizeof p, "%s/OpenNI2", stage);
+    rmdir(p);
+    snprintf(p, sizeof p, "%s/libOpenNI2.so.0", stage);
+    unlink(p);
+    rmdir(stage);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    char err[DRV_ERR_LEN] = "";
+    const char *build = getenv("MESHSTEER_BUILD");
+    const char *plugin = getenv("MESHSTEER_TESTCAM_PLUGIN");
+    ASSERT(build && plugin);
+    const char *staged = getenv("MESHSTEER_ONI_STAGED");
+    if (!staged) {
+        Dl_info di;
+        ASSERT(dladdr((void *)oniInitialize, &di) && di.dli_fname);
+        snprintf(stage, sizeof stage, "%s/tests/drivers/oni-stage-%d", build, (int)getpid());
+        char p[4400];
+        ASSERT(mkdir(stage, 0777) == 0 || errno == EEXIST);
+        snprintf(p, sizeof p, "%s/OpenNI2", stage);
+        ASSERT(mkdir(p, 0777) == 0 || errno == EEXIST);
+        snprintf(p, sizeof p, "%s/OpenNI2/Drivers", stage);
+        ASSERT(mkdir(p, 0777) == 0 || errno == EEXIST);
+        snprintf(p, sizeof p, "%s/libOpenNI2.so.0", stage);
+        copy_file(di.dli_fname, p);
+        snprintf(p, sizeof p, "%s/OpenNI2/Drivers/libMeshsteerTestCam.so.0", stage);
+        copy_file(plugin, p);
+        setenv("LD_LIBRARY_PATH", stage, 1);
+        setenv("MESHSTEER_ONI_STAGED", stage, 1);
+        execv("/proc/self/exe", argv);
+        fprintf(stderr, "execv: %s\n", strerror(errno));
+        return 1;
+    }
+    snprintf(stage, sizeof stage, "%s", staged);
+    atexit(unstage);
+    {
+        Dl_info di;
+        ASSERT(dladdr((void *)oniInitialize, &di) && di.dli_fname);
+        printf("libOpenNI2: %s\n", di.dli_fname);
+        ASSERT(strstr(di.dli_fname, stage) != NULL);
+    }
+
+    /* ---- clock mapping: the least delayed frame sets the offset; jumps re-anchor */
+    {
+        drv_clock_map m = {0};
+        ASSERT_INT_EQ(drv_clock_map_apply(&m, 1000, 50000), 50000);
+        ASSERT_INT_EQ(drv_clock_map_apply(&m, 34333, 84333 + 7000), 83333); /* 8 ms late */
+        ASSERT_INT_EQ(drv_clock_map_apply(&m, 67666, 117666 - 2000), 115666); /* earlier */
+        ASSERT_INT_EQ(drv_clock_map_apply(&m, 100, 200000), 200000);          /* went back */
+        ASSERT_INT_EQ(drv_clock_map_apply(&m, 200100, 600000), 600000);       /* drifted */
+    }
+
+    /* ---- a dump of real Kinect frames for the plugin to serve */
+    char dir[4300];
+    snprintf(dir, sizeof dir, "%s/dump", stage);
+    drv_fakenect_writer *w;
+    ASSERT_OK(drv_fakenect_writer_open(dir, &w, err), err);
+    uint16_t *mm = malloc(640 * 480 * sizeof *mm);
+    uint8_t *raw = malloc(640 * 480 * 2);
+    const char *frames[] = {"depth-data-1045879925", "depth-data-1051883281"};
+    for (int k = 0; k < 2; k++) {
+        char rel[256];
+        snprintf(rel, sizeof rel, "depth/skeltrack-kinect-raw16/%s", frames[k]);
+        FILE *f = fopen(test_data(rel), "rb");
+        ASSERT(f);
+        ASSERT_INT_EQ(fread(raw, 1, 640 * 480 * 2, f), 640 * 480 * 2);
+        fclose(f);
+        for (int i = 0; i < 640 * 480; i++)
+            mm[i] = (uint16_t)(raw[2 * i] | raw[2 * i + 1] << 8);
+        ASSERT_OK(drv_fakenect_writer_depth(w, 10.0 + k / 30.0, (uint32_t)k, mm, err), err);
+    }
+    ASSERT_OK(drv_fakenect_writer_close(w, err), err);
+
+    /* ---- stream through OpenNI2 + plugin; the device vanishes after 8 frames */
+    char spec[4500];
+    snprintf(spec, sizeof spec, "openni2:meshsteer-testcam:%s?vanish=8&fps=60#width=640&height=480", dir);
+    for (int round = 0; round < 2; round++) { /* round 1: reopened after the loss (recovery) */
+        drv_source *s;
+        ASSERT_OK(drv_source_open(spec, &s, err), err);
+        ASSERT_INT_EQ(s->count, DRV_DEPTH_NLABELS);
+        ASSERT_OK(drv_source_start(s, err), err);
+        float xyz[DRV_DEPTH_NLABELS * 3];
+        uint8_t valid[DRV_DEPTH_NLABELS];
+        int got = 0, lost = 0;
+        uint64_t prev = 0;
+        for (int it = 0; it < 200 && !lost; it++) {
+            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
+            int r = drv_source_read(s, &fr, 500, err);
+            if (r == DRV_ETIMEOUT)
+                continue;
+            if (r == DRV_ELOST) {
+                lost = 1;
+                printf("round %d: lost after %d frames: %s (state %s)\n", round, got, err,
+                       drv_state_name(s->state));
+                ASSERT_INT_EQ(s->state, DRV_STATE_LOST);
+                break;
+            }
+            ASSERT_OK(r, err);
+            uint64_t now = now_us();
+            ASSERT(fr.t_capture_us <= now && fr.t_capture_us + 500000 > now);
+            ASSERT(fr.t_capture_us > prev);
+            prev = fr.t_capture_us;
+            ASSERT(valid[DRV_DEPTH_HEAD] && valid[DRV_DEPTH_LHAND] && valid[DRV_DEPTH_RHAND]);
+            /* the person stands about 1.1 .. 1.5 m in front (camera looks along -Z) */
+            ASSERT(xyz[2] < -1.0f && xyz[2] > -1.6f);
+            if (got == 0)
+                printf("round %d: head (%.3f %.3f %.3f) lhand (%.3f %.3f %.3f)\n", round, xyz[0],
+                       xyz[1], xyz[2], xyz[3], xyz[4], xyz[5]);
+            got++;
+        }
+        ASSERT(lost);
+        ASSERT(got >= 4 && got <= 8); /* OpenNI2 keeps only the newest frame */
+        drv_source_close(s);
+    }
+
+    /* ---- a missing device or recording is a clear error */
+    {
+        drv_source *s;
+        int r = drv_source_open("openni2:/nonexistent/recording.oni", &s, err);
+        printf("missing: %s\n", err);
+        ASSERT(r < 0 && strstr(err, "recording.oni"));
+        ASSERT(drv_source_open("openni2:x#width=abc", &s, err) == -EINVAL);
+    }
+    char p[4400];
+    snprintf(p, sizeof p, "%s/INDEX.txt", dir);
+    unlink(p);
+    for (int k = 0; k < 2; k++) {
+        snprintf(p, sizeof p, "%s/d-%f-%u.pgm", dir, 10.0 + k / 30.0, (unsigned)k);
+        unlink(p);
+    }
+    rmdir(dir);
+    free(mm);
+    free(raw);
+    printf("ok\n");
+    return 0;
+}
