@@ -1,45 +1,11 @@
 /* test_example.c - the built-in example creature: sizes, determinism, a clean closed connected mesh,
  * motion everywhere, bulging limbs, and a marker recording that matches its ground truth.
- *
- * mdl_meshseq_destroy, mdl_rig_destroy and mdl_markers_destroy live in other files (meshseq.c,
- * rig.c, csv.c) that this test must not depend on; the local frees below release the objects
- * exactly as model.h documents their allocation. */
+  */
 #include "model.h"
 #include "test.h"
 
 #include <errno.h>
 #include <stdint.h>
-
-static void free_seq(mdl_meshseq *s)
-{
-    if (!s)
-        return;
-    free(s->V);
-    free(s->F);
-    free(s);
-}
-
-static void free_rig(mdl_rig *r)
-{
-    if (!r)
-        return;
-    free(r->markers);
-    free(r->limb_off);
-    free(r->limb_idx);
-    free(r);
-}
-
-static void free_markers(mdl_markers *m)
-{
-    if (!m)
-        return;
-    for (int i = 0; i < m->count; i++)
-        free(m->names[i]);
-    free(m->names);
-    free(m->P);
-    free(m->valid);
-    free(m);
-}
 
 static int uf(int *p, int x)
 {
@@ -225,8 +191,8 @@ int main(void)
     ASSERT(!memcmp(s->F, s2->F, (size_t)s->nf * 3 * sizeof(uint32_t)));
     ASSERT_INT_EQ(r2->nmarkers, r->nmarkers);
     ASSERT(!memcmp(r->markers, r2->markers, (size_t)r->nmarkers * sizeof *r->markers));
-    free_seq(s2);
-    free_rig(r2);
+    mdl_meshseq_destroy(s2);
+    mdl_rig_destroy(r2);
 
     /* the rig */
     static const char *names[] = {"lf_foot", "rf_foot", "lh_foot", "rh_foot", "head", "tail", "withers", "croup"};
@@ -287,16 +253,16 @@ int main(void)
         }
     printf("largest marker difference between the two motions: %.3f m\n", diff);
     ASSERT(diff > 0.05);
-    free_markers(mk);
-    free_seq(truth);
+    mdl_markers_destroy(mk);
+    mdl_meshseq_destroy(truth);
 
     /* without truth, deterministic */
     mdl_markers *mk2 = NULL;
     ASSERT_OK(mdl_example_markers(r, 90, 1.3, &mk2, NULL, err), err);
     ASSERT_OK(mdl_example_markers(r, 90, 1.3, &mk, NULL, err), err);
     ASSERT(!memcmp(mk->P, mk2->P, 90 * 8 * 3 * sizeof(float)));
-    free_markers(mk);
-    free_markers(mk2);
+    mdl_markers_destroy(mk);
+    mdl_markers_destroy(mk2);
 
     /* bad arguments are refused with a reason */
     ASSERT_INT_EQ(mdl_example_create(0, &s2, NULL, err), -EINVAL);
@@ -307,7 +273,7 @@ int main(void)
     ASSERT_INT_EQ(mdl_example_markers(r, 10, 1, &mk, NULL, err), -EINVAL);
     ASSERT(mk == NULL && strstr(err, "rh_foot"));
 
-    free_seq(s);
-    free_rig(r);
+    mdl_meshseq_destroy(s);
+    mdl_rig_destroy(r);
     return 0;
 }
