@@ -1,6 +1,6 @@
 /* test_example.c - the built-in example creature: sizes, determinism, a clean closed connected mesh,
  * motion everywhere, bulging limbs, and a marker recording that matches its ground truth.
-  */
+ */
 #include "model.h"
 #include "test.h"
 
