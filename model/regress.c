@@ -13,14 +13,58 @@
 static const double grid[] = {1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 3e-2, 0.1, 0.3, 1, 3, 10, 100};
 
 /* Solves for B (d x q) with (Z^T Z + lam I) B = Z^T Yc; returns train and LOO errors (weighted). */
+/* Solves k x k A e = r for `q` right-hand sides (columns of r, ld k) in place, by Gaussian
+ * elimination with partial pivoting; A is destroyed. Returns -1 when singular. */
+static int small_solve(double *A, int k, double *r, int q)
+{
+    for (int c = 0; c < k; c++) {
+        int piv = c;
+        for (int i = c + 1; i < k; i++)
+            if (fabs(A[c * k + i]) > fabs(A[c * k + piv]))
+                piv = i;
+        if (!(fabs(A[c * k + piv]) > 1e-12))
+            return -1;
+        if (piv != c) {
+            for (int j = 0; j < k; j++) {
+                double t = A[j * k + c];
+                A[j * k + c] = A[j * k + piv];
+                A[j * k + piv] = t;
+            }
+            for (int j = 0; j < q; j++) {
+                double t = r[j * k + c];
+                r[j * k + c] = r[j * k + piv];
+                r[j * k + piv] = t;
+            }
+        }
+        for (int i = c + 1; i < k; i++) {
+            double f = A[c * k + i] / A[c * k + c];
+            for (int j = c; j < k; j++)
+                A[j * k + i] -= f * A[j * k + c];
+            for (int j = 0; j < q; j++)
+                r[j * k + i] -= f * r[j * k + c];
+        }
+    }
+    for (int c = k - 1; c >= 0; c--)
+        for (int j = 0; j < q; j++) {
+            double v = r[j * k + c];
+            for (int i = c + 1; i < k; i++)
+                v -= A[i * k + c] * r[j * k + i];
+            r[j * k + c] = v / A[c * k + c];
+        }
+    return 0;
+}
+
 /* Solves (Z^T Z + lam n I) B = Z^T Yc and accumulates per-column training and leave-one-out
- * errors. With many samples (n > d) the hat diagonal h_ii = 1/n + z_i^T G^{-1} z_i is taken from
- * the primal factor. With few (n <= d) the dual form is used, which stays exact as lam -> 0:
- * I - H = lam' (Z Z^T + lam' I)^{-1} - 1 1^T / n, so r = lam' M Yc and e_loo_i = r_i / (lam' M_ii
- * - 1/n) with M = (Z Z^T + lam' I)^{-1}; the scale lam' cancels. K and M are n x n scratch. */
+ * errors. Leave-one-out is exact for ridge regression with an unpenalised intercept: the residual
+ * of a left-out group g (rows g, g + gs, g + 2 gs, ... when gs > 0, else the single row g) is
+ * e_g = [(I - H)_gg]^{-1} r_g, with r = (I - H) Yc the training residual. Groups hold the noisy
+ * copies of one frame (train.c), which must leave together or they leak into each other's fit.
+ * With many samples (n > d), I - H = I - 1 1^T / n - Z G^{-1} Z^T from the primal factor; with
+ * few (n <= d) the dual form, which stays exact as lam -> 0: I - H = lam' (Z Z^T + lam' I)^{-1}
+ * - 1 1^T / n. K and M are n x n scratch (dual), Rr n x q scratch. */
 static int solve_one(const double *Z, int n, int d, const double *Yc, int q, const double *yw,
-                     double lam, double *G, double *B, double *W, double *K, double *M,
-                     double *col_train, double *col_loo, char *err)
+                     double lam, int gs, double *G, double *B, double *W, double *K, double *M,
+                     double *Rr, double *col_train, double *col_loo, char *err)
 {
     double lp = lam * n;
     mdl_la_gemm('T', 'N', d, d, n, 1.0, Z, n, Z, n, 0.0, G, d);
@@ -32,9 +76,8 @@ static int solve_one(const double *Z, int n, int d, const double *Yc, int q, con
     mdl_la_gemm('T', 'N', d, q, n, 1.0, Z, n, Yc, n, 0.0, B, d);
     if ((r = mdl_la_potrs(d, q, G, d, B, d, err)))
         return r;
-    for (int c = 0; c < q; c++)
-        col_loo[c] = col_train[c] = 0;
-    if (n <= d) {
+    int dual = n <= d;
+    if (dual) {
         mdl_la_gemm('N', 'T', n, n, d, 1.0, Z, n, Z, n, 0.0, K, n);
         for (int i = 0; i < n; i++)
             K[i * n + i] += lp;
@@ -46,46 +89,61 @@ static int solve_one(const double *Z, int n, int d, const double *Yc, int q, con
             M[i * n + i] = 1;
         if ((r = mdl_la_potrs(n, n, K, n, M, n, err)))
             return r;
-        for (int i = 0; i < n; i++) {
-            double a = lp * M[i * n + i] - 1.0 / n;
-            if (a < 1e-12)
-                a = 1e-12;
-            for (int c = 0; c < q; c++) {
-                double res = 0;
-                for (int j = 0; j < n; j++)
-                    res += M[j * n + i] * Yc[c * n + j];
-                res *= lp;
-                col_train[c] += yw[c] * res * res;
-                col_loo[c] += yw[c] * (res / a) * (res / a);
-            }
-        }
-        return 0;
-    }
-    /* W = G^{-1} Z^T (d x n); h_ii = 1/n + z_i . W_i */
-    for (int i = 0; i < n; i++)
-        for (int j = 0; j < d; j++)
-            W[i * d + j] = Z[j * n + i];
-    if ((r = mdl_la_potrs(d, n, G, d, W, d, err)))
-        return r;
-    for (int i = 0; i < n; i++) {
-        double h = 1.0 / n;
-        for (int j = 0; j < d; j++)
-            h += Z[j * n + i] * W[i * d + j];
-        double denom = 1 - h > 1e-6 ? 1 - h : 1e-6;
-        for (int c = 0; c < q; c++) {
-            double pred = 0;
+        mdl_la_gemm('N', 'N', n, q, n, lp, M, n, Yc, n, 0.0, Rr, n);
+    } else {
+        /* W = G^{-1} Z^T (d x n) */
+        for (int i = 0; i < n; i++)
             for (int j = 0; j < d; j++)
-                pred += Z[j * n + i] * B[c * d + j];
-            double res = Yc[c * n + i] - pred;
-            col_train[c] += yw[c] * res * res;
-            col_loo[c] += yw[c] * (res / denom) * (res / denom);
+                W[i * d + j] = Z[j * n + i];
+        if ((r = mdl_la_potrs(d, n, G, d, W, d, err)))
+            return r;
+        memcpy(Rr, Yc, sizeof(double) * (size_t)n * q);
+        mdl_la_gemm('N', 'N', n, q, d, -1.0, Z, n, B, d, 1.0, Rr, n);
+    }
+    int k = gs > 0 ? n / gs : 1, ng = gs > 0 ? gs : n;
+    double A[MDL_MAX_GROUP * MDL_MAX_GROUP], e[MDL_MAX_GROUP * 64];
+    for (int c = 0; c < q; c++) {
+        col_loo[c] = col_train[c] = 0;
+        for (int i = 0; i < n; i++)
+            col_train[c] += yw[c] * Rr[c * n + i] * Rr[c * n + i];
+    }
+    for (int g = 0; g < ng; g++) {
+        /* (I - H)_gg */
+        for (int a = 0; a < k; a++)
+            for (int b = 0; b < k; b++) {
+                int ia = g + a * ng, ib = g + b * ng;
+                double v;
+                if (dual) {
+                    v = lp * M[ib * n + ia] - 1.0 / n;
+                } else {
+                    v = (ia == ib) - 1.0 / n;
+                    for (int j = 0; j < d; j++)
+                        v -= Z[j * n + ia] * W[ib * d + j];
+                }
+                A[b * k + a] = v;
+            }
+        double Ac[MDL_MAX_GROUP * MDL_MAX_GROUP];
+        for (int c0 = 0; c0 < q; c0 += 64) {
+            int qc = q - c0 < 64 ? q - c0 : 64;
+            memcpy(Ac, A, sizeof(double) * (size_t)k * k);
+            for (int c = 0; c < qc; c++)
+                for (int a = 0; a < k; a++)
+                    e[c * k + a] = Rr[(c0 + c) * n + g + a * ng];
+            if (small_solve(Ac, k, e, qc)) { /* a sample the fit cannot do without */
+                for (int c = 0; c < qc; c++)
+                    col_loo[c0 + c] += 1e12 * yw[c0 + c];
+                continue;
+            }
+            for (int c = 0; c < qc; c++)
+                for (int a = 0; a < k; a++)
+                    col_loo[c0 + c] += yw[c0 + c] * e[c * k + a] * e[c * k + a];
         }
     }
     return 0;
 }
 
 int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double ridge,
-                   const double *colw, double *mean, double *sd, double *coef, double *chosen,
+                   const double *colw, int gs, double *mean, double *sd, double *coef, double *chosen,
                    double *rms_train, double *rms_loo, char *err)
 {
     if (n < 1 || d < 0 || q < 1)
@@ -101,8 +159,11 @@ int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double
     double *W = mdl__calloc((size_t)dd * n, sizeof *W);
     double *G2 = n <= d ? mdl__calloc((size_t)n * n, sizeof *G2) : mdl__calloc(1, sizeof *G2);
     double *B2 = n <= d ? mdl__calloc((size_t)n * n, sizeof *B2) : mdl__calloc(1, sizeof *B2);
+    double *Rr = mdl__calloc((size_t)n * q, sizeof *Rr);
     int rc = 0;
-    if (!Z || !Yc || !ymean || !yw || !G || !B || !Bbest || !W || !G2 || !B2) {
+    if (gs < 0 || (gs > 0 && (n % gs != 0 || n / gs > MDL_MAX_GROUP)))
+        gs = 0;
+    if (!Z || !Yc || !ymean || !yw || !G || !B || !Bbest || !W || !G2 || !B2 || !Rr) {
         rc = mdl__err(err, -ENOMEM, "regression: out of memory");
         goto out;
     }
@@ -162,7 +223,7 @@ int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double
     for (int g = 0; g < ng; g++) {
         double lam = ridge < 0 ? grid[g] : ridge;
         char e2[MDL_ERR_LEN];
-        int r = solve_one(Z, n, d, Yc, q, yw, lam, G, B, W, G2, B2, ct, cl, e2);
+        int r = solve_one(Z, n, d, Yc, q, yw, lam, gs, G, B, W, G2, B2, Rr, ct, cl, e2);
         if (r) {
             if (ridge >= 0) {
                 rc = mdl__err(err, r, "regression: %s", e2);
@@ -218,6 +279,7 @@ out:
     free(W);
     free(G2);
     free(B2);
+    free(Rr);
     return rc;
 }
 
@@ -247,7 +309,7 @@ void mdl__design_row(const double *x, int d, const double *zmean, const double *
 }
 
 int mdl__regression_fit(const double *X, int n, int d, const double *Y, int q, double ridge,
-                        const double *colw, int use_rbf, double **zmean, double **zsd, double **cent, int *m,
+                        const double *colw, int gs, int use_rbf, double **zmean, double **zsd, double **cent, int *m,
                         double *width, double **mean, double **sd, double **coef, double *chosen,
                         double *rms_train, double *rms_loo, char *err)
 {
@@ -298,7 +360,7 @@ int mdl__regression_fit(const double *X, int n, int d, const double *Y, int q, d
         }
         double ch, rt, rl;
         char e2[MDL_ERR_LEN];
-        int r = mdl__ridge_fit(D, n, nx, Y, q, ridge, colw, *mean, *sd, *coef, &ch, &rt, &rl, e2);
+        int r = mdl__ridge_fit(D, n, nx, Y, q, ridge, colw, gs, *mean, *sd, *coef, &ch, &rt, &rl, e2);
         if (r) {
             if (!mm) {
                 rc = mdl__err(err, r, "%s", e2);

@@ -15,8 +15,12 @@
 #ifndef MESHSTEER_MODEL_REGRESS_H
 #define MESHSTEER_MODEL_REGRESS_H
 
+#define MDL_MAX_GROUP 16 /* largest leave-one-out group (noisy copies of one frame + 1) */
+
+/* gs > 0: samples i, i + gs, i + 2 gs, ... form one group that leave-one-out leaves out together
+ * (n must be a multiple of gs, at most MDL_MAX_GROUP per group); 0: every sample alone. */
 int mdl__ridge_fit(const double *X, int n, int d, const double *Y, int q, double ridge,
-                   const double *colw, double *mean, double *sd, double *coef, double *chosen, double *rms_train,
+                   const double *colw, int gs, double *mean, double *sd, double *coef, double *chosen, double *rms_train,
                    double *rms_loo, char *err);
 
 /* Radial basis extension (the paper's Sec. 6 names non-linear regression, kernel CCA, as the
@@ -32,7 +36,7 @@ void mdl__design_row(const double *x, int d, const double *zmean, const double *
 /* Fits everything above: X n x d (column-major), Y n x q. Allocates *zmean, *zsd, *cent, *mean,
  * *sd (sizes d, d, m*d, d+m, d+m) and *coef ((d+m+1) x q). use_rbf = 0 gives the linear model. */
 int mdl__regression_fit(const double *X, int n, int d, const double *Y, int q, double ridge,
-                        const double *colw, int use_rbf, double **zmean, double **zsd, double **cent, int *m,
+                        const double *colw, int gs, int use_rbf, double **zmean, double **zsd, double **cent, int *m,
                         double *width, double **mean, double **sd, double **coef, double *chosen,
                         double *rms_train, double *rms_loo, char *err);
 

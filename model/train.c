@@ -618,6 +618,10 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
          * marker noise of about train_noise metres should not move the result (data augmentation
          * in place of a noise model): copy a > 0 of frame i has every marker jittered */
         int copies = !markers && opts->train_noise > 0 ? opts->noise_copies : 0;
+        if (copies > MDL_MAX_GROUP - 1)
+            copies = MDL_MAX_GROUP - 1;
+        if (copies < 0)
+            copies = 0;
         int nsamp = markers ? FM : T * (1 + copies);
         if (copies) {
             ALLOC(Pn, (size_t)T * copies * nm * 3);
@@ -746,7 +750,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
                     w[x] = 1;
             }
             if ((rc = mdl__regression_fit(Xr, nsamp, d, Yr, q, opts->ridge, colw,
-                                          opts->linear < 0 ? markers == NULL : !opts->linear, &rg->zmean,
+                                          copies ? T : 0, opts->linear < 0 ? markers == NULL : !opts->linear, &rg->zmean,
                                           &rg->zsd, &rg->cent, &rg->ncent, &rg->width, &rg->in_mean,
                                           &rg->in_sd, &rg->coef, &rg->ridge, &rg->rms_train,
                                           &rg->rms_loo, err)))

@@ -21,7 +21,7 @@ int main(void)
         Y[n + i] = -4 + X[2 * n + i];
     }
     double mean[d], sd[d], coef[(d + 1) * q], lam, rt, rl, z[d + 1], yp[q];
-    ASSERT_OK(mdl__ridge_fit(X, n, d, Y, q, -1, NULL, mean, sd, coef, &lam, &rt, &rl, err), err);
+    ASSERT_OK(mdl__ridge_fit(X, n, d, Y, q, -1, NULL, 0, mean, sd, coef, &lam, &rt, &rl, err), err);
     ASSERT(lam <= 1e-4);
     ASSERT(rl < 1e-3);
     double x[d] = {0.5, -1, 1.5};
@@ -37,7 +37,7 @@ int main(void)
     int m;
     double errs[2];
     for (int rbf = 0; rbf < 2; rbf++) {
-        ASSERT_OK(mdl__regression_fit(X, n, d, Yn, 1, -1, NULL, rbf, &zm, &zs, &cent, &m, &w, &mn,
+        ASSERT_OK(mdl__regression_fit(X, n, d, Yn, 1, -1, NULL, 0, rbf, &zm, &zs, &cent, &m, &w, &mn,
                                       &sdv, &cf, &lam, &rt, &rl, err),
                   err);
         ASSERT_INT_EQ(m, rbf ? n : 0);
@@ -71,7 +71,7 @@ int main(void)
             st = st * 1664525u + 1013904223u;
             Y2[i] = (double)(st >> 8) / (1 << 24); /* pure noise: nothing to predict */
         }
-        ASSERT_OK(mdl__ridge_fit(X2, n2, d2, Y2, 1, -1, NULL, m2, s2, c2, &lam, &rt, &rl, err), err);
+        ASSERT_OK(mdl__ridge_fit(X2, n2, d2, Y2, 1, -1, NULL, 0, m2, s2, c2, &lam, &rt, &rl, err), err);
         printf("noise target: leave-one-out residual %.3f (chosen ridge %g)\n", rl, lam);
         ASSERT(rl > 0.9);
     }
