@@ -64,11 +64,16 @@ struct drv_source {
     const char **names;   /* count labels, owned by the implementation */
     double fps;           /* nominal rate, 0 if unknown */
     drv_state state;
+    int detached;         /* the device was released by drv_source_reopen and none is open yet */
 };
 
 /* spec: "scheme:argument", e.g. "replay:walk.c3d?loop=1&speed=0.5&start=10". */
 int drv_source_open(const char *spec, drv_source **out, char *err);
 int drv_source_start(drv_source *s, char *err);
+/* After DRV_ELOST: releases the vanished device and opens `spec` again into the same handle (so
+ * that other threads keep a valid pointer), provided the new device has the same source kind and
+ * marker set; then start it. On failure the handle stays LOST, with no device; try again later. */
+int drv_source_reopen(drv_source *s, const char *spec, char *err);
 int drv_source_read(drv_source *s, drv_frame *f, int timeout_ms, char *err);
 /* Replay controls: "pause" (1/0), "seek" (frame), "speed" (factor). -ENOTSUP when not supported. */
 int drv_source_control(drv_source *s, const char *key, double value, char *err);

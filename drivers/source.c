@@ -99,10 +99,46 @@ int drv_source_open(const char *spec, drv_source **out, char *err)
     return 0;
 }
 
+int drv_source_reopen(drv_source *s, const char *spec, char *err)
+{
+    if (!s || !spec)
+        return src_err(err, -EINVAL, "source: NULL");
+    /* release the vanished device first: a driver may refuse to open a device twice */
+    if (!s->detached) {
+        if (s->state == DRV_STATE_STREAMING || s->state == DRV_STATE_LOST ||
+            s->state == DRV_STATE_ENDED)
+            s->ops->stop(s);
+        s->ops->close(s);
+        s->impl = NULL;
+        s->detached = 1;
+        s->state = DRV_STATE_LOST;
+    }
+    drv_source *t;
+    int r = drv_source_open(spec, &t, err);
+    if (r)
+        return r;
+    int same = t->ops == s->ops && t->count == s->count;
+    for (int i = 0; same && i < s->count; i++)
+        same = !strcmp(t->names[i], s->names[i]);
+    if (!same) {
+        drv_source_close(t);
+        return src_err(err, -EINVAL, "source '%s': reopened with another marker set", spec);
+    }
+    s->impl = t->impl;
+    s->names = t->names;
+    s->fps = t->fps;
+    s->detached = 0;
+    s->state = DRV_STATE_OPEN;
+    free(t);
+    return 0;
+}
+
 int drv_source_start(drv_source *s, char *err)
 {
     if (!s)
         return src_err(err, -EINVAL, "source: NULL");
+    if (s->detached)
+        return src_err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
     if (s->state == DRV_STATE_STREAMING)
         return 0;
     int r = s->ops->start(s, err);
@@ -139,6 +175,8 @@ int drv_source_control(drv_source *s, const char *key, double value, char *err)
         return src_err(err, -EINVAL, "source: NULL");
     if (!s->ops->control)
         return src_err(err, -ENOTSUP, "source %s: no controls", s->ops->scheme);
+    if (s->detached)
+        return src_err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
     int r = s->ops->control(s, key, value, err);
     /* a seek may revive a replay that had ended */
     if (r == 0 && s->state == DRV_STATE_ENDED && !strcmp(key, "seek"))
@@ -148,7 +186,7 @@ int drv_source_control(drv_source *s, const char *key, double value, char *err)
 
 void drv_source_stop(drv_source *s)
 {
-    if (!s || (s->state != DRV_STATE_STREAMING && s->state != DRV_STATE_ENDED &&
+    if (!s || s->detached || (s->state != DRV_STATE_STREAMING && s->state != DRV_STATE_ENDED &&
                s->state != DRV_STATE_LOST))
         return;
     s->ops->stop(s);
@@ -160,7 +198,8 @@ void drv_source_close(drv_source *s)
     if (!s)
         return;
     drv_source_stop(s);
-    s->ops->close(s);
+    if (!s->detached)
+        s->ops->close(s);
     free(s);
 }
 

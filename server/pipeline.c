@@ -289,7 +289,20 @@ static void *source_main(void *arg)
             pthread_mutex_unlock(&p->slot_lock);
         } else if (r == DRV_ETIMEOUT) {
             continue;
-        } else if (r == DRV_EEOF || r == DRV_ELOST) {
+        } else if (r == DRV_ELOST) {
+            /* the device went away: clients keep the last pose; try to open it again once a
+             * second, so that the daemon recovers by itself when the device returns */
+            for (int i = 0; i < 10 && !atomic_load(&p->stop); i++) {
+                struct timespec ts = {0, 100 * 1000000L};
+                nanosleep(&ts, NULL);
+            }
+            if (atomic_load(&p->stop))
+                break;
+            if (drv_source_reopen(s, p->spec, e) == 0 && drv_source_start(s, e) == 0)
+                srv_log(SRV_LOG_NOTICE, "source %s: the device is back", p->spec);
+            else
+                srv_log(SRV_LOG_DEBUG, "source %s: still lost: %s", p->spec, e);
+        } else if (r == DRV_EEOF) {
             struct timespec ts = {0, 50 * 1000000L}; /* wait for a seek (or the end) */
             nanosleep(&ts, NULL);
         } else {

@@ -121,9 +121,13 @@ int main(int argc, char **argv)
     /* ---- stream through OpenNI2 + plugin; the device vanishes after 8 frames */
     char spec[4500];
     snprintf(spec, sizeof spec, "openni2:meshsteer-testcam:%s?vanish=8&fps=60#width=640&height=480", dir);
+    drv_source *s;
+    ASSERT_OK(drv_source_open(spec, &s, err), err);
     for (int round = 0; round < 2; round++) { /* round 1: reopened after the loss (recovery) */
-        drv_source *s;
-        ASSERT_OK(drv_source_open(spec, &s, err), err);
+        if (round == 1) { /* the daemon's recovery: the same handle, opened again */
+            ASSERT_OK(drv_source_reopen(s, spec, err), err);
+            ASSERT_INT_EQ(s->state, DRV_STATE_OPEN);
+        }
         ASSERT_INT_EQ(s->count, DRV_DEPTH_NLABELS);
         ASSERT_OK(drv_source_start(s, err), err);
         float xyz[DRV_DEPTH_NLABELS * 3];
@@ -157,8 +161,8 @@ int main(int argc, char **argv)
         }
         ASSERT(lost);
         ASSERT(got >= 4 && got <= 8); /* OpenNI2 keeps only the newest frame */
-        drv_source_close(s);
     }
+    drv_source_close(s);
 
     /* ---- a missing device or recording is a clear error */
     {
