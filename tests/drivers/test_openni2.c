@@ -3,11 +3,21 @@
  * to the libOpenNI2.so.0 it was loaded from (names *.so.0; the ini path /etc/openni2/OpenNI.ini is
  * fixed), so the test stages a copy of the library with our plugin beside it, re-executes itself
  * with LD_LIBRARY_PATH pointing there, then: streams markers from a fakenect dump of real Kinect
- * frames served by the plugin, sees the device vanish (DRV_ELOST), reopens it (recovery), and
- * checks the device-to-monotonic clock mapping and the error for a missing device. */
+ * frames served by the plugin, sees the device vanish (DRV_ELOST), reopens it in the same handle
+ * (drv_source_reopen, the daemon's recovery), checks the device-to-monotonic clock mapping and the
+ * error for a missing device; then runs meshsteerd (MESHSTEERD) with a samba model driven by the
+ * depth labels (rigs/samba-depth.json) on the vanishing test camera and watches /healthz show the
+ * loss and the recovery while frames keep coming, and SIGTERM end it with status 0. */
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
 #include "depth/fakenect.h"
 #include "depth/oni_c.h"
 #include "depth/openni2.h"
+#include "model.h"
 #include "test.h"
 
 #include <dlfcn.h>
@@ -48,6 +58,116 @@ static void unstage(void)
     snprintf(p, sizeof p, "%s/libOpenNI2.so.0", stage);
     unlink(p);
     rmdir(stage);
+}
+
+/* GET path from 127.0.0.1:port; the body into buf. Returns 0 on a 200 answer. */
+static int http_get(int port, const char *path, char *buf, size_t len)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    if (fd < 0)
+        return -1;
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (connect(fd, (struct sockaddr *)&a, sizeof a) != 0) {
+        close(fd);
+        return -1;
+    }
+    char req[256];
+    int n = snprintf(req, sizeof req, "GET %s HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n", path);
+    if (write(fd, req, (size_t)n) != n) {
+        close(fd);
+        return -1;
+    }
+    size_t got = 0;
+    ssize_t r;
+    while (got + 1 < len && (r = read(fd, buf + got, len - 1 - got)) > 0)
+        got += (size_t)r;
+    buf[got] = 0;
+    close(fd);
+    return strstr(buf, " 200 ") ? 0 : -1;
+}
+
+static long json_long(const char *s, const char *key)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\":", key);
+    const char *p = strstr(s, k);
+    return p ? strtol(p + strlen(k), NULL, 10) : -1;
+}
+
+static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
+{
+    /* a model of the samba dancer driven by the six depth labels */
+    mdl_meshseq *seq;
+    mdl_rig *rig;
+    ASSERT_OK(mdl_meshseq_read(test_data("meshes/samba/samba.pc2"), test_data("meshes/samba/rest.obj"),
+                               &seq, err),
+              err);
+    ASSERT_OK(mdl_rig_read(test_src("rigs/samba-depth.json"), seq->nv, &rig, err), err);
+    int frames[22];
+    for (int i = 0; i < 22; i++)
+        frames[i] = 8 * i;
+    mdl_train_opts o;
+    mdl_train_opts_default(&o);
+    mdl_model *m;
+    ASSERT_OK(mdl_model_train(seq, frames, 22, rig, NULL, &o, &m, err), err);
+    char model[4400];
+    snprintf(model, sizeof model, "%s/samba-depth.msm", stage);
+    ASSERT_OK(mdl_model_save(m, model, err), err);
+    mdl_model_destroy(m);
+    mdl_rig_destroy(rig);
+    mdl_meshseq_destroy(seq);
+
+    char spec[4600], listen[64], log[4400];
+    snprintf(spec, sizeof spec, "openni2:meshsteer-testcam:%s?vanish=20&fps=30#width=640&height=480", dump);
+    int port = 20000 + (int)(getpid() % 20000);
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+    snprintf(log, sizeof log, "%s/meshsteerd.log", stage);
+    pid_t pid = fork();
+    ASSERT(pid >= 0);
+    if (pid == 0) {
+        int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+            dup2(fd, 2);
+            dup2(fd, 1);
+        }
+        execl(meshsteerd, meshsteerd, "--model", model, "--source", spec, "--listen", listen,
+              "--log-level", "info", (char *)NULL);
+        _exit(127);
+    }
+    char body[8192];
+    int seen_lost = 0, back = 0;
+    long frames_at_loss = -1, last = -1;
+    for (int t = 0; t < 150 && !(back && last > frames_at_loss + 10); t++) { /* up to 15 s */
+        usleep(100 * 1000);
+        if (http_get(port, "/healthz", body, sizeof body) != 0)
+            continue;
+        last = json_long(body, "frames_synthesized");
+        int lost = strstr(body, "\"state\":\"lost\"") != NULL;
+        if (lost && !seen_lost) {
+            seen_lost = 1;
+            frames_at_loss = last;
+            printf("daemon: source lost after %ld synthesised frames\n", last);
+        }
+        if (seen_lost && !lost && strstr(body, "\"state\":\"streaming\""))
+            back = 1;
+    }
+    printf("daemon: %s, %ld frames synthesised\n", back ? "recovered" : "did not recover", last);
+    ASSERT(http_get(port, "/metrics", body, sizeof body) == 0);
+    ASSERT(strstr(body, "meshsteer_frames_synthesized_total") != NULL);
+    kill(pid, SIGTERM);
+    int st = 0;
+    ASSERT(waitpid(pid, &st, 0) == pid);
+    if (!(seen_lost && back && last > frames_at_loss)) {
+        char cmd[4500];
+        snprintf(cmd, sizeof cmd, "tail -20 %s >&2", log);
+        if (system(cmd) < 0)
+            perror("system");
+    }
+    ASSERT(seen_lost);
+    ASSERT(back);
+    ASSERT(last > frames_at_loss);
+    ASSERT(WIFEXITED(st) && WEXITSTATUS(st) == 0);
 }
 
 int main(int argc, char **argv)
@@ -163,6 +283,12 @@ int main(int argc, char **argv)
         ASSERT(got >= 4 && got <= 8); /* OpenNI2 keeps only the newest frame */
     }
     drv_source_close(s);
+
+    /* ---- the daemon end to end: meshsteerd streams a depth-driven model from the test camera,
+     * shows the loss on /healthz, keeps serving, and recovers by itself */
+    const char *meshsteerd = getenv("MESHSTEERD");
+    if (meshsteerd)
+        daemon_e2e(meshsteerd, dir, err);
 
     /* ---- a missing device or recording is a clear error */
     {
