@@ -81,6 +81,8 @@ typedef struct oni_src {
     uint16_t *mm;
     drv_clock_map clock;
     uint64_t seq;
+    char record[512];            /* record=PATH.oni: OpenNI2's recorder writes the depth stream */
+    OniRecorderHandle rec;
 } oni_src;
 
 static int uri_matches(const oni_src *o, const OniDeviceInfo *info)
@@ -112,6 +114,8 @@ static void oni_free(oni_src *o)
 {
     if (!o)
         return;
+    if (o->rec)
+        oniRecorderDestroy(&o->rec);
     if (o->stream) {
         oniStreamStop(o->stream);
         oniStreamDestroy(o->stream);
@@ -139,6 +143,12 @@ static int parse_opts(oni_src *o, const char *q, char *err)
         if (!eq)
             return fail(err, -EINVAL, "openni2: option '%s': expected key=value", kv);
         *eq = '\0';
+        if (!strcmp(kv, "record")) { /* a path, not a number */
+            if (!eq[1] || strlen(eq + 1) >= sizeof o->record)
+                return fail(err, -EINVAL, "openni2: option record: empty or too long a path");
+            snprintf(o->record, sizeof o->record, "%s", eq + 1);
+            continue;
+        }
         char *end;
         long v = strtol(eq + 1, &end, 10);
         if (*end || end == eq + 1)
@@ -153,7 +163,8 @@ static int parse_opts(oni_src *o, const char *q, char *err)
             o->loop = (int)v;
         else
             return fail(err, -EINVAL,
-                        "openni2: option %s=%ld unknown or out of range (width, height, fps, loop)",
+                        "openni2: option %s=%ld unknown or out of range (width, height, fps, loop, "
+                        "record)",
                         kv, v);
     }
     return 0;
@@ -320,6 +331,18 @@ static int oni_start(drv_source *s, char *err)
     if (oniStreamStart(o->stream) != ONI_STATUS_OK)
         return fail(err, atomic_load(&o->lost) ? DRV_ELOST : -EIO,
                     "openni2 %s: cannot start the depth stream: %s", o->uri, oni_why(why));
+    if (o->record[0] && !o->rec) { /* lossless: the recording must replay to the same markers */
+        if (oniCreateRecorder(o->record, &o->rec) != ONI_STATUS_OK ||
+            oniRecorderAttachStream(o->rec, o->stream, 0) != ONI_STATUS_OK ||
+            oniRecorderStart(o->rec) != ONI_STATUS_OK) {
+            int r = fail(err, -EIO, "openni2 %s: cannot record to %s: %s", o->uri, o->record,
+                         oni_why(why));
+            if (o->rec)
+                oniRecorderDestroy(&o->rec);
+            oniStreamStop(o->stream);
+            return r;
+        }
+    }
     return 0;
 }
 

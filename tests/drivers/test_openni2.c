@@ -13,6 +13,7 @@
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include "depth/fakenect.h"
 #include "depth/oni_c.h"
@@ -50,6 +51,8 @@ static void unstage(void)
 {
     char p[4400];
     snprintf(p, sizeof p, "%s/OpenNI2/Drivers/libMeshsteerTestCam.so.0", stage);
+    unlink(p);
+    snprintf(p, sizeof p, "%s/OpenNI2/Drivers/libOniFile.so.0", stage);
     unlink(p);
     snprintf(p, sizeof p, "%s/OpenNI2/Drivers", stage);
     rmdir(p);
@@ -192,6 +195,16 @@ int main(int argc, char **argv)
         copy_file(di.dli_fname, p);
         snprintf(p, sizeof p, "%s/OpenNI2/Drivers/libMeshsteerTestCam.so.0", stage);
         copy_file(plugin, p);
+        /* OpenNI2's own file driver, which plays .oni recordings */
+        char src[4400];
+        snprintf(src, sizeof src, "%s", di.dli_fname);
+        char *slash = strrchr(src, '/');
+        if (slash) {
+            snprintf(slash + 1, sizeof src - (size_t)(slash + 1 - src), "OpenNI2/Drivers/libOniFile.so.0");
+            snprintf(p, sizeof p, "%s/OpenNI2/Drivers/libOniFile.so.0", stage);
+            if (access(src, R_OK) == 0)
+                copy_file(src, p);
+        }
         setenv("LD_LIBRARY_PATH", stage, 1);
         setenv("MESHSTEER_ONI_STAGED", stage, 1);
         execv("/proc/self/exe", argv);
@@ -283,6 +296,36 @@ int main(int argc, char **argv)
         ASSERT(got >= 4 && got <= 8); /* OpenNI2 keeps only the newest frame */
     }
     drv_source_close(s);
+
+    /* ---- recording: OpenNI2's recorder writes what the source receives to .oni */
+    {
+        char rspec[9200], oni[4200];
+        snprintf(oni, sizeof oni, "%s/rec.oni", stage);
+        snprintf(rspec, sizeof rspec,
+                 "openni2:meshsteer-testcam:%s?vanish=100&fps=30#width=640&height=480&record=%s", dir, oni);
+        drv_source *s2;
+        ASSERT_OK(drv_source_open(rspec, &s2, err), err);
+        ASSERT_OK(drv_source_start(s2, err), err);
+        float xyz[DRV_DEPTH_NLABELS * 3];
+        uint8_t valid[DRV_DEPTH_NLABELS];
+        int got = 0;
+        for (int it = 0; it < 100 && got < 6; it++) {
+            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
+            int r = drv_source_read(s2, &fr, 500, err);
+            if (r == DRV_ETIMEOUT)
+                continue;
+            ASSERT_OK(r, err);
+            got++;
+        }
+        drv_source_close(s2);
+        struct stat st;
+        ASSERT(stat(oni, &st) == 0 && st.st_size > 640 * 480);
+        /* Not yet checked: playing this file back through openni2:FILE.oni. With OpenNI2's own
+         * OniFile driver staged beside the library, the file opens and its stream starts, but no
+         * frame arrives within 50 s (cause unknown); see the issue note. */
+        printf("recording: %d frames to %s (%ld bytes)\n", got, oni, (long)st.st_size);
+        unlink(oni);
+    }
 
     /* ---- the daemon end to end: meshsteerd streams a depth-driven model from the test camera,
      * shows the loss on /healthz, keeps serving, and recovers by itself */
