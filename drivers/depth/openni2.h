@@ -4,8 +4,9 @@
  * URI: any OpenNI2 device URI (as oniGetDeviceList lists them), a .oni recording (OpenNI2's own
  * OniFile driver plays it), or empty for the first device found. Options follow a '#' (URIs may
  * contain '?' and ':'): width=, height=, fps= choose the depth mode (nearest supported, preferring
- * 1 mm depth pixels; default 640x480 at 30), loop=0|1 (recordings: repeat, default 1), record=PATH.oni (OpenNI2's recorder writes the
- * depth stream to PATH, losslessly, from start on; playing such a file back is not yet verified).
+ * 1 mm depth pixels; default 640x480 at 30), loop=0|1 (recordings: repeat, default 1),
+ * record=PATH.oni (OpenNI2's recorder writes the depth stream to PATH, losslessly, from start on;
+ * playing such a file back is not yet verified).
  *
  * Per stream: mirroring off (ONI_STREAM_PROPERTY_MIRRORING), intrinsics from the stream's fields
  * of view (fx = (w/2) / tan(hfov/2), fy = (h/2) / tan(vfov/2), centre at the image middle), depth
