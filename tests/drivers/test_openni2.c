@@ -217,6 +217,16 @@ int main(int argc, char **argv)
     }
     snprintf(stage, sizeof stage, "%s", staged);
     atexit(unstage);
+    /* keep the drivers loaded after oniShutdown, so that a leak report can name the module */
+    {
+        const char *drv[] = {"libMeshsteerTestCam.so.0", "libOniFile.so.0"};
+        for (int i = 0; i < 2; i++) {
+            char p[4400];
+            snprintf(p, sizeof p, "%s/OpenNI2/Drivers/%s", stage, drv[i]);
+            if (access(p, R_OK) == 0 && !dlopen(p, RTLD_NOW | RTLD_NODELETE))
+                fprintf(stderr, "dlopen %s: %s\n", p, dlerror());
+        }
+    }
     {
         Dl_info di;
         ASSERT(dladdr((void *)oniInitialize, &di) && di.dli_fname);
