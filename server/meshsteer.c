@@ -49,7 +49,7 @@ static void usage(FILE *f)
                "Steers detailed mesh animations from a few tracked points (Voegele et al. 2012).\n\n"
                "commands:\n");
     for (const cli_command *c = commands; c->name; c++)
-        fprintf(f, "  %-9s %s\n", c->name, c->summary);
+        fprintf(f, "  %-11s %s\n", c->name, c->summary);
     fprintf(f, "\n'meshsteer COMMAND --help' describes a command's options.\n");
 }
 
