@@ -334,9 +334,10 @@ int main(int argc, char **argv)
         drv_source_close(s2);
         struct stat st;
         ASSERT(stat(oni, &st) == 0 && st.st_size > 640 * 480);
-        /* Not yet checked: playing this file back through openni2:FILE.oni. With OpenNI2's own
-         * OniFile driver staged beside the library, the file opens and its stream starts, but no
-         * frame arrives within 50 s (cause unknown); see the issue note. */
+        /* Not yet working: playing this file back. With OpenNI2's own OniFile driver staged beside
+         * the library the file opens (5 frames, 640x480, 1 mm pixels, speed 1, repeat on) and
+         * its stream starts, but the player delivers no frame (oniWaitForAnyStream times out);
+         * see the issue note. */
         printf("recording: %d frames to %s (%ld bytes)\n", got, oni, (long)st.st_size);
         unlink(oni);
     }
