@@ -8,7 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define SRV_HIST_BUCKETS 12
+#define SRV_HIST_BUCKETS 18
 
 typedef struct srv_hist {
     atomic_uint_fast64_t count[SRV_HIST_BUCKETS + 1]; /* last = +Inf */
