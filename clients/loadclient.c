@@ -4,6 +4,7 @@
  * (connections, hellos and topologies done) measures for every frame message it receives:
  *   end to end  receipt (CLOCK_MONOTONIC, so run it on the daemon's host) - capture timestamp
  *   server      the frame's send timestamp - capture timestamp (the daemon's own share)
+ *   synthesis   the frame's synthesis timestamp - capture timestamp (source -> mesh done)
  * and per connection the frames received against the server's sequence span (what it would have
  * received had it kept up). Prints p50/p99/max of both, received vs sent, frames/s per client
  * (mean and the slowest client); -j prints the same as one JSON object.
@@ -60,7 +61,7 @@ typedef struct run {
     int want_enc; /* 0 float32, 1 int16 */
     const char *encoding;
     uint64_t t_measure;  /* frames received before this are warm-up */
-    uint32_t *e2e, *srv; /* microseconds */
+    uint32_t *e2e, *srv, *syn; /* microseconds */
     size_t nlat, caplat;
     uint64_t lost_lat;   /* latencies beyond caplat (not stored) */
 } run;
@@ -113,7 +114,7 @@ static void on_message(conn *c, uint64_t t)
         return; /* hello, topology, replies */
     if (h[4] != R.want_enc || t < R.t_measure)
         return; /* before the encoding switch took effect, or warm-up */
-    uint64_t seq = le64(h + 24), tc = le64(h + 32), ts = le64(h + 48);
+    uint64_t seq = le64(h + 24), tc = le64(h + 32), tsy = le64(h + 40), ts = le64(h + 48);
     if (!c->frames)
         c->first_seq = seq;
     else
@@ -126,6 +127,7 @@ static void on_message(conn *c, uint64_t t)
     }
     R.e2e[R.nlat] = (uint32_t)(t > tc ? t - tc : 0);
     R.srv[R.nlat] = (uint32_t)(ts > tc ? ts - tc : 0);
+    R.syn[R.nlat] = (uint32_t)(tsy > tc ? tsy - tc : 0);
     R.nlat++;
 }
 
@@ -336,11 +338,12 @@ int main(int argc, char **argv)
     R.caplat = (size_t)((double)n * secs * 240) + 1024;
     R.e2e = malloc(R.caplat * sizeof *R.e2e);
     R.srv = malloc(R.caplat * sizeof *R.srv);
+    R.syn = malloc(R.caplat * sizeof *R.syn);
     conn *c = calloc((size_t)n, sizeof *c);
     unsigned char *buf = malloc(RECV_CHUNK);
     struct epoll_event *ev = malloc(sizeof *ev * (size_t)n);
     int ep = epoll_create1(EPOLL_CLOEXEC);
-    if (!R.e2e || !R.srv || !c || !buf || !ev || ep < 0) {
+    if (!R.e2e || !R.srv || !R.syn || !c || !buf || !ev || ep < 0) {
         fprintf(stderr, "meshsteer-load: out of memory\n");
         return 1;
     }
@@ -404,23 +407,27 @@ int main(int argc, char **argv)
     }
     qsort(R.e2e, R.nlat, sizeof *R.e2e, cmp_u32);
     qsort(R.srv, R.nlat, sizeof *R.srv, cmp_u32);
+    qsort(R.syn, R.nlat, sizeof *R.syn, cmp_u32);
     double pct = sent ? 100.0 * (double)frames / (double)sent : 0, fps = (double)frames / n / secs;
     double e50 = quant(R.e2e, R.nlat, 0.5), e99 = quant(R.e2e, R.nlat, 0.99);
     double emax = quant(R.e2e, R.nlat, 1.0);
     double s50 = quant(R.srv, R.nlat, 0.5), s99 = quant(R.srv, R.nlat, 0.99);
+    double y50 = quant(R.syn, R.nlat, 0.5), y99 = quant(R.syn, R.nlat, 0.99);
     if (json)
         printf("{\"clients\":%d,\"connected\":%d,\"encoding\":\"%s\",\"seconds\":%g,"
                "\"received\":%llu,\"sent\":%llu,\"skipped\":%llu,\"fps_mean\":%.2f,"
                "\"fps_min\":%.2f,\"e2e_p50_ms\":%.3f,\"e2e_p99_ms\":%.3f,\"e2e_max_ms\":%.3f,"
-               "\"server_p50_ms\":%.3f,\"server_p99_ms\":%.3f}\n",
+               "\"server_p50_ms\":%.3f,\"server_p99_ms\":%.3f,\"synth_p50_ms\":%.3f,"
+               "\"synth_p99_ms\":%.3f}\n",
                n, up, R.encoding, secs, (unsigned long long)frames, (unsigned long long)sent,
-               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99);
+               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99, y50, y99);
     else
         printf("clients %d (connected %d) encoding %s, %.1f s: frames received %llu of %llu sent "
                "(%.2f%%), skipped %llu, %.1f frames/s per client (slowest %.1f); end-to-end p50 "
-               "%.2f ms p99 %.2f ms max %.2f ms; capture->send p50 %.2f ms p99 %.2f ms\n",
+               "%.2f ms p99 %.2f ms max %.2f ms; capture->send p50 %.2f ms p99 %.2f ms; "
+               "capture->synthesised p50 %.2f ms p99 %.2f ms\n",
                n, up, R.encoding, secs, (unsigned long long)frames, (unsigned long long)sent, pct,
-               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99);
+               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99, y50, y99);
     if (R.lost_lat)
         fprintf(stderr, "meshsteer-load: %llu latencies not stored (more frames than expected)\n",
                 (unsigned long long)R.lost_lat);
@@ -430,5 +437,6 @@ int main(int argc, char **argv)
     free(c);
     free(R.e2e);
     free(R.srv);
+    free(R.syn);
     return up == n && opened == n ? 0 : 1;
 }

@@ -88,6 +88,9 @@ size_t srv_metrics_render(const srv_metrics *m, double uptime_s, char *buf, size
             ld(&m->frames_out));
     counter(&o, "meshsteer_bytes_out_total", "Bytes of WebSocket messages written to clients.",
             ld(&m->bytes_out));
+    counter(&o, "meshsteer_partial_writes_total",
+            "Frame messages the socket did not take whole (the rest waited in lws).",
+            ld(&m->partial_writes));
     emit(&o, "# HELP meshsteer_drops_total Frames dropped, by reason.\n"
              "# TYPE meshsteer_drops_total counter\n");
     for (int d = 0; d < SRV_DROP_COUNT; d++)
