@@ -19,7 +19,7 @@
 #include <string.h>
 #include <sys/socket.h>
 
-#define SRV_SNDBUF_MIN (256 * 1024)
+#define SRV_SNDBUF_MIN (128 * 1024)
 #define SRV_SNDBUF_MAX (4 * 1024 * 1024) /* Linux caps it at net.core.wmem_max anyway */
 
 static srv_daemon *daemon_of(struct lws *wsi)
@@ -83,7 +83,16 @@ static int filter(srv_daemon *d, struct lws *wsi)
         return 0;
     char peer[128] = "?";
     lws_get_peer_simple(wsi, peer, sizeof peer);
-    srv_log(SRV_LOG_INFO, "refused /stream connection from %s: %s", peer, why);
+    if (lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_ORIGIN) <= 0)
+        buf[0] = '\0';
+    if (lws_hdr_copy(wsi, host, sizeof host, WSI_TOKEN_HOST) <= 0)
+        host[0] = '\0';
+    for (char *p = buf; *p; p++) /* the log shows what the client sent, printable only */
+        *p = *p < 0x20 || *p > 0x7e ? '?' : *p;
+    for (char *p = host; *p; p++)
+        *p = *p < 0x20 || *p > 0x7e ? '?' : *p;
+    srv_log(SRV_LOG_INFO, "refused /stream connection from %s (Origin '%s', Host '%s'): %s", peer,
+            buf, host, why);
     srv_metrics_count(&d->metrics.clients_rejected, 1);
     return 1;
 }
@@ -118,7 +127,7 @@ static void size_send_buffer(srv_daemon *d, struct lws *wsi)
     srv_gen *g = srv_pipeline_current(d->pipe);
     size_t frame = srv_frame_size(SRV_ENC_FLOAT32, g->nv, g->nm);
     srv_gen_unref(g);
-    size_t want = 3 * frame + 65536;
+    size_t want = frame + 65536; /* Linux doubles it for its bookkeeping */
     if (want < SRV_SNDBUF_MIN)
         want = SRV_SNDBUF_MIN;
     if (want > SRV_SNDBUF_MAX)
