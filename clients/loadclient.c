@@ -14,10 +14,10 @@
  * machine (measured: 94 % of this client's CPU at 16 int16 clients, and the reason for seconds of
  * backlog at 64 clients). So this client speaks the client side of RFC 6455 itself, over epoll:
  * the handshake (status 101 checked; Sec-WebSocket-Accept is not verified, this is a measuring
- * tool on a known server), unmasked server frames parsed as a stream (header, then payload
- * skipped in bulk, only the first 56 bytes of each message kept), pings answered, close honoured,
- * and one masked text frame sent (the encoding request). One recv of up to 1 MB per readable
- * socket, the receipt time taken once per recv. No allocation after start.
+ * tool on a known server), the server's frames parsed as a stream by wsframe.c (payload skipped
+ * in bulk, only the first 56 bytes of each message kept), pings answered, close honoured, and one
+ * masked text frame sent (the encoding request). One recv of up to 1 MB per readable socket, the
+ * receipt time taken once per recv. No allocation after start.
  * Usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16] [-p PORT]
  *                       [-H HOST] [-O ORIGIN] [-j] */
 #include <errno.h>
@@ -34,6 +34,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "wsframe.h"
+
 #define HEADER 56            /* frame message header (docs/PROTOCOL.md) */
 #define RECV_CHUNK (1 << 20) /* one recv takes up to this much */
 #define HS_MAX 2048          /* handshake response headers */
@@ -44,15 +46,8 @@ typedef struct conn {
     int fd, state, failed;
     char hs[HS_MAX];
     size_t hs_len;
-    /* RFC 6455 frame parser */
-    unsigned char fh[14];
-    size_t fh_len, fh_need;
-    uint64_t remaining; /* payload bytes left in the current frame */
-    int opcode, fin, in_msg, msg_binary;
-    unsigned char head[HEADER]; /* first bytes of the message being received */
-    size_t head_len;
-    unsigned char ctl[125];     /* control frame payload */
-    size_t ctl_len;
+    ws_rx rx;
+    uint64_t t_recv; /* receipt time of the bytes being parsed */
     /* statistics */
     uint64_t first_seq, last_seq, frames, skipped;
 } conn;
@@ -106,12 +101,23 @@ static int send_frame(conn *c, int opcode, const void *data, size_t len)
     return w == (ssize_t)(6 + len) ? 0 : -1;
 }
 
-/* A whole frame message has arrived at time t. */
-static void on_message(conn *c, uint64_t t)
+static int fail(conn *c, const char *why)
 {
-    const unsigned char *h = c->head;
-    if (!c->msg_binary || c->head_len < HEADER || memcmp(h, "MSFR", 4))
+    if (!c->failed)
+        fprintf(stderr, "meshsteer-load: connection %d: %s\n", c->fd, why);
+    c->failed = 1;
+    c->state = C_CLOSED;
+    return -1;
+}
+
+/* A whole message has arrived (wsframe.c callback). */
+static void on_message(void *ud, int binary, const unsigned char *h, size_t head_len, uint64_t len)
+{
+    conn *c = ud;
+    (void)len;
+    if (!binary || head_len < HEADER || memcmp(h, "MSFR", 4))
         return; /* hello, topology, replies */
+    uint64_t t = c->t_recv;
     if (h[4] != R.want_enc || t < R.t_measure)
         return; /* before the encoding switch took effect, or warm-up */
     uint64_t seq = le64(h + 24), tc = le64(h + 32), tsy = le64(h + 40), ts = le64(h + 48);
@@ -131,101 +137,30 @@ static void on_message(conn *c, uint64_t t)
     R.nlat++;
 }
 
-static int fail(conn *c, const char *why)
+/* Ping -> pong with the same payload; close -> answer and stop. */
+static int on_control(void *ud, int opcode, const unsigned char *payload, size_t len)
 {
-    if (!c->failed)
-        fprintf(stderr, "meshsteer-load: connection %d: %s\n", c->fd, why);
-    c->failed = 1;
-    c->state = C_CLOSED;
-    return -1;
-}
-
-/* The end of a frame (its payload all consumed). */
-static int frame_done(conn *c, uint64_t t)
-{
-    c->fh_len = 0;
-    c->fh_need = 2;
-    if (c->opcode >= 8) {
-        if (c->opcode == 9) /* ping -> pong with the same payload */
-            return send_frame(c, 10, c->ctl, c->ctl_len) ? fail(c, "cannot send pong") : 0;
-        if (c->opcode == 8) { /* close: answer and stop */
-            send_frame(c, 8, c->ctl, c->ctl_len >= 2 ? 2 : 0);
-            c->state = C_CLOSED;
-            return -1;
-        }
-        return 0; /* pong */
-    }
-    if (c->fin) {
-        on_message(c, t);
-        c->in_msg = 0;
+    conn *c = ud;
+    if (opcode == WS_OP_PING)
+        return send_frame(c, WS_OP_PONG, payload, len) ? fail(c, "cannot send pong") : 0;
+    if (opcode == WS_OP_CLOSE) {
+        send_frame(c, WS_OP_CLOSE, payload, len >= 2 ? 2 : 0);
+        return fail(c, "closed by the server");
     }
     return 0;
 }
 
-/* Parses n bytes of the server's stream, received at time t. */
+static const ws_rx_cb callbacks = {on_message, on_control, NULL};
+
 static int ws_feed(conn *c, const unsigned char *p, size_t n, uint64_t t)
 {
-    while (n > 0) {
-        if (c->fh_len < c->fh_need) { /* frame header */
-            c->fh[c->fh_len++] = *p++;
-            n--;
-            if (c->fh_len == 2) {
-                unsigned len7 = c->fh[1] & 0x7f;
-                if (c->fh[1] & 0x80)
-                    return fail(c, "masked frame from the server");
-                if (c->fh[0] & 0x70)
-                    return fail(c, "reserved bits set (no extension was negotiated)");
-                c->fh_need = 2 + (len7 == 126 ? 2 : len7 == 127 ? 8 : 0);
-            }
-            if (c->fh_len < c->fh_need)
-                continue;
-            unsigned len7 = c->fh[1] & 0x7f;
-            uint64_t len = len7;
-            if (len7 == 126)
-                len = (uint64_t)c->fh[2] << 8 | c->fh[3];
-            else if (len7 == 127)
-                for (int i = 0; i < 8; i++)
-                    len = (i ? len << 8 : 0) | c->fh[2 + i];
-            c->opcode = c->fh[0] & 0x0f;
-            c->fin = (c->fh[0] & 0x80) != 0;
-            c->remaining = len;
-            if (c->opcode >= 8) {
-                if (!c->fin || len > 125 || c->opcode > 10)
-                    return fail(c, "bad control frame");
-                c->ctl_len = 0;
-            } else if (c->opcode == 1 || c->opcode == 2) {
-                if (c->in_msg)
-                    return fail(c, "new message inside a fragmented one");
-                c->in_msg = 1;
-                c->msg_binary = c->opcode == 2;
-                c->head_len = 0;
-            } else if (c->opcode == 0) {
-                if (!c->in_msg)
-                    return fail(c, "continuation without a message");
-            } else {
-                return fail(c, "unknown opcode");
-            }
-            if (len == 0 && frame_done(c, t))
-                return -1;
-            continue;
-        }
-        /* payload: keep what is needed, skip the rest in bulk */
-        size_t k = c->remaining < n ? (size_t)c->remaining : n;
-        if (c->opcode >= 8) {
-            memcpy(c->ctl + c->ctl_len, p, k);
-            c->ctl_len += k;
-        } else if (c->head_len < HEADER) {
-            size_t h = k < HEADER - c->head_len ? k : HEADER - c->head_len;
-            memcpy(c->head + c->head_len, p, h);
-            c->head_len += h;
-        }
-        p += k;
-        n -= k;
-        c->remaining -= k;
-        if (c->remaining == 0 && frame_done(c, t))
-            return -1;
-    }
-    return 0;
+    ws_rx_cb cb = callbacks;
+    cb.ud = c;
+    c->t_recv = t;
+    int r = ws_rx_feed(&c->rx, p, n, &cb);
+    if (r < 0 && c->rx.error)
+        return fail(c, c->rx.error);
+    return r ? -1 : 0;
 }
 
 static int open_conn(conn *c, const struct addrinfo *ai, const char *host, int port,
@@ -255,31 +190,33 @@ static int open_conn(conn *c, const struct addrinfo *ai, const char *host, int p
     }
     fcntl(c->fd, F_SETFL, fcntl(c->fd, F_GETFL) | O_NONBLOCK);
     c->state = C_HANDSHAKE;
-    c->fh_need = 2;
+    ws_rx_init(&c->rx, HEADER);
     return 0;
 }
 
 /* Reads the 101 response; what follows the headers is frame data. */
 static int handshake(conn *c, const unsigned char *p, size_t n, uint64_t t)
 {
-    size_t room = sizeof c->hs - 1 - c->hs_len, k = n < room ? n : room;
-    memcpy(c->hs + c->hs_len, p, k);
+    size_t before = c->hs_len, room = sizeof c->hs - before, k = n < room ? n : room;
+    memcpy(c->hs + before, p, k);
     c->hs_len += k;
-    c->hs[c->hs_len] = '\0';
-    char *end = strstr(c->hs, "\r\n\r\n");
-    if (!end)
-        return c->hs_len == sizeof c->hs - 1 ? fail(c, "handshake response too long") : 0;
-    if (strncmp(c->hs, "HTTP/1.1 101", 12)) {
-        char *eol = strstr(c->hs, "\r\n");
-        *eol = '\0';
-        return fail(c, c->hs);
+    long end = ws_handshake_end(c->hs, c->hs_len);
+    if (end < 0) {
+        char line[128];
+        size_t l = 0;
+        while (l < c->hs_len && l < sizeof line - 1 && c->hs[l] != '\r' && c->hs[l] != '\n')
+            line[l] = c->hs[l], l++;
+        line[l] = '\0';
+        return fail(c, l ? line : "refused");
     }
+    if (end == 0)
+        return c->hs_len == sizeof c->hs ? fail(c, "handshake response too long") : 0;
     c->state = C_OPEN;
     char msg[96];
     int m = snprintf(msg, sizeof msg, "{\"type\":\"encoding\",\"encoding\":\"%s\"}", R.encoding);
-    if (send_frame(c, 1, msg, (size_t)m))
+    if (send_frame(c, WS_OP_TEXT, msg, (size_t)m))
         return fail(c, "cannot send the encoding request");
-    size_t used = (size_t)(end + 4 - c->hs) - (c->hs_len - k); /* bytes of p in the headers */
+    size_t used = (size_t)end - before; /* bytes of p that belonged to the headers */
     return ws_feed(c, p + used, n - used, t);
 }
 
