@@ -5,9 +5,10 @@
 #include <stdio.h>
 #include <string.h>
 
-/* upper bounds in microseconds */
-static const uint64_t bucket_us[SRV_HIST_BUCKETS] = {100,   250,   500,    1000,   2000,   5000,
-                                                     10000, 20000, 50000, 100000, 250000, 1000000};
+/* upper bounds in microseconds: fine below 20 ms, where the latency goals lie */
+static const uint64_t bucket_us[SRV_HIST_BUCKETS] = {
+    100, 250, 500, 750, 1000, 1500, 2000, 3000, 4000, 5000, 7500, 10000, 15000, 20000, 50000,
+    100000, 250000, 1000000};
 
 static const char *const drop_names[SRV_DROP_COUNT] = {"synth_busy", "synth_failed", "client_slow",
                                                        "source_error"};
@@ -87,6 +88,9 @@ size_t srv_metrics_render(const srv_metrics *m, double uptime_s, char *buf, size
             ld(&m->frames_out));
     counter(&o, "meshsteer_bytes_out_total", "Bytes of WebSocket messages written to clients.",
             ld(&m->bytes_out));
+    counter(&o, "meshsteer_partial_writes_total",
+            "Frame messages the socket did not take whole (the rest waited in lws).",
+            ld(&m->partial_writes));
     emit(&o, "# HELP meshsteer_drops_total Frames dropped, by reason.\n"
              "# TYPE meshsteer_drops_total counter\n");
     for (int d = 0; d < SRV_DROP_COUNT; d++)

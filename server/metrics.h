@@ -8,7 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define SRV_HIST_BUCKETS 12
+#define SRV_HIST_BUCKETS 18
 
 typedef struct srv_hist {
     atomic_uint_fast64_t count[SRV_HIST_BUCKETS + 1]; /* last = +Inf */
@@ -30,6 +30,7 @@ typedef struct srv_metrics {
     atomic_uint_fast64_t frames_synth; /* mesh frames synthesised and published */
     atomic_uint_fast64_t frames_out;   /* frame messages written to clients */
     atomic_uint_fast64_t bytes_out;
+    atomic_uint_fast64_t partial_writes; /* frames the socket did not take whole (lws kept the rest) */
     atomic_uint_fast64_t drops[SRV_DROP_COUNT];
     atomic_uint_fast64_t clients_total;
     atomic_uint_fast64_t clients_rejected;

@@ -7,13 +7,20 @@
  * The pipeline wakes this thread with lws_cancel_service (EVENT_WAIT_CANCELLED).
  * Control messages are validated (control.c); replies queue per session (SRV_REPLY_QUEUE); a
  * message larger than max_message closes that connection with 1009, a client that leaves a frame
- * unaccepted for idle_timeout seconds is closed by an lws timeout. */
+ * unaccepted for idle_timeout seconds is closed by an lws timeout.
+ * Writes: a frame goes out in one send() (tx_packet_size) into a socket buffer sized to take it
+ * whole (size_send_buffer), so lws never has to keep a remainder (/metrics partial_writes). */
 #include "control.h"
 #include "daemon.h"
 #include "log.h"
 
+#include <errno.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+
+#define SRV_SNDBUF_MIN (128 * 1024)
+#define SRV_SNDBUF_MAX (4 * 1024 * 1024) /* Linux caps it at net.core.wmem_max anyway */
 
 static srv_daemon *daemon_of(struct lws *wsi)
 {
@@ -76,7 +83,16 @@ static int filter(srv_daemon *d, struct lws *wsi)
         return 0;
     char peer[128] = "?";
     lws_get_peer_simple(wsi, peer, sizeof peer);
-    srv_log(SRV_LOG_INFO, "refused /stream connection from %s: %s", peer, why);
+    if (lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_ORIGIN) <= 0)
+        buf[0] = '\0';
+    if (lws_hdr_copy(wsi, host, sizeof host, WSI_TOKEN_HOST) <= 0)
+        host[0] = '\0';
+    for (char *p = buf; *p; p++) /* the log shows what the client sent, printable only */
+        *p = *p < 0x20 || *p > 0x7e ? '?' : *p;
+    for (char *p = host; *p; p++)
+        *p = *p < 0x20 || *p > 0x7e ? '?' : *p;
+    srv_log(SRV_LOG_INFO, "refused /stream connection from %s (Origin '%s', Host '%s'): %s", peer,
+            buf, host, why);
     srv_metrics_count(&d->metrics.clients_rejected, 1);
     return 1;
 }
@@ -99,6 +115,26 @@ static int queue_reply(srv_session *s, const char *txt, size_t len)
     s->nreplies++;
     lws_callback_on_writable(s->wsi);
     return 0;
+}
+
+/* The socket's send buffer, sized so that one whole frame (of either encoding) always fits: with
+ * Linux's default (16 KB, autotuned from there) nearly every frame write of a mesh was partial,
+ * and lws then copies the rest into a fresh heap buffer and sends it from a later POLLOUT, an
+ * allocation, a copy and a poll round per frame and client. A few frames' worth also bounds what
+ * a slow client can have queued in the kernel (latest-frame-wins applies above that). */
+static void size_send_buffer(srv_daemon *d, struct lws *wsi)
+{
+    srv_gen *g = srv_pipeline_current(d->pipe);
+    size_t frame = srv_frame_size(SRV_ENC_FLOAT32, g->nv, g->nm);
+    srv_gen_unref(g);
+    size_t want = frame + 65536; /* Linux doubles it for its bookkeeping */
+    if (want < SRV_SNDBUF_MIN)
+        want = SRV_SNDBUF_MIN;
+    if (want > SRV_SNDBUF_MAX)
+        want = SRV_SNDBUF_MAX;
+    int v = (int)want, fd = lws_get_socket_fd(wsi);
+    if (fd < 0 || setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &v, sizeof v))
+        srv_log(SRV_LOG_DEBUG, "SO_SNDBUF %d: %s", v, strerror(errno));
 }
 
 static int reply_error(srv_daemon *d, srv_session *s, const char *code, const char *msg,
@@ -189,6 +225,8 @@ static int write_frame_or_nothing(srv_daemon *d, srv_session *s, struct lws *wsi
         srv_put_u32(m + SRV_FRAME_OFF_SKIPPED, (uint32_t)(skipped > UINT32_MAX ? UINT32_MAX : skipped));
         srv_put_u64(m + SRV_FRAME_OFF_SEND, now);
         r = lws_write(wsi, m, len, LWS_WRITE_BINARY);
+        if (r >= 0 && lws_partial_buffered(wsi))
+            srv_metrics_count(&d->metrics.partial_writes, 1);
         s->last_seq = f->seq;
         s->frames++;
         s->skipped += skipped;
@@ -262,6 +300,7 @@ static int callback_stream(struct lws *wsi, enum lws_callback_reasons reason, vo
             s->replies = NULL;
             return -1;
         }
+        size_send_buffer(d, wsi);
         s->next = d->sessions;
         d->sessions = s;
         d->nsessions++;
@@ -357,4 +396,7 @@ const struct lws_protocols srv_proto_stream = {
     .callback = callback_stream,
     .per_session_data_size = sizeof(srv_session),
     .rx_buffer_size = 4096,
+    /* lws 4.1 otherwise limits one send() to rx_buffer_size (+ 20): a 50-100 KB frame went out in
+     * 4116-byte pieces, one poll round each, the rest copied into a heap buffer meanwhile. */
+    .tx_packet_size = SRV_SNDBUF_MAX,
 };

@@ -57,11 +57,32 @@ void harness_copy(const char *from, const char *to)
     ASSERT(rename(tmp, to) == 0); /* atomic, as a deploy would do */
 }
 
-void harness_fixtures(harness *h, const char *make_model)
+void harness_dir(harness *h)
 {
     const char *build = getenv("MESHSTEER_BUILD");
     snprintf(h->dir, sizeof h->dir, "%s/tests/server/tmp-XXXXXX", build ? build : "/tmp");
     ASSERT(mkdtemp(h->dir));
+}
+
+int harness_run(const char *const *argv, const char *out_path)
+{
+    pid_t pid = fork();
+    ASSERT(pid >= 0);
+    if (pid == 0) {
+        int fd = open(out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        dup2(fd, 1);
+        dup2(fd, 2);
+        execv(argv[0], (char *const *)argv);
+        _exit(127);
+    }
+    int st;
+    ASSERT(waitpid(pid, &st, 0) == pid);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+void harness_fixtures(harness *h, const char *make_model)
+{
+    harness_dir(h);
     char cmd[2300];
     snprintf(cmd, sizeof cmd, "'%s' '%s' >/dev/null", make_model, h->dir);
     if (system(cmd) != 0) {
@@ -84,7 +105,9 @@ int harness_log_has(const harness *h, const char *needle)
 
 void harness_start(harness *h, const char *meshsteerd, const char *const *args)
 {
-    snprintf(h->log, sizeof h->log, "%s/daemon-%ld.log", h->dir, (long)time(NULL) ^ (long)getpid());
+    static int starts; /* a fresh log per start: the parent must not read the last one's port */
+    snprintf(h->log, sizeof h->log, "%s/daemon-%d.log", h->dir, ++starts);
+    unlink(h->log);
     const char *argv[64];
     int n = 0;
     argv[n++] = meshsteerd;
@@ -96,6 +119,12 @@ void harness_start(harness *h, const char *meshsteerd, const char *const *args)
     if (h->pid == 0) {
         int fd = open(h->log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         dup2(fd, 2);
+        /* a later option wins; ignored by a daemon built without sanitizers */
+        const char *a = getenv("ASAN_OPTIONS");
+        char asan[1024];
+        snprintf(asan, sizeof asan, "%s%squarantine_size_mb=1:thread_local_quarantine_size_kb=64",
+                 a ? a : "", a && *a ? ":" : "");
+        setenv("ASAN_OPTIONS", asan, 1);
         execv(meshsteerd, (char *const *)argv);
         _exit(127);
     }

@@ -14,9 +14,13 @@ typedef struct harness {
     int port;
 } harness;
 
+/* Makes an empty dir/ (under the build directory) for a test that brings its own files. */
+void harness_dir(harness *h);
 /* Makes dir/ with example.msm, model.msm (a copy), corrupt.msm and trot.csv. */
 void harness_fixtures(harness *h, const char *make_model);
-/* Starts meshsteerd with the given extra arguments (NULL-terminated); waits for its port. */
+/* Starts meshsteerd with the given extra arguments (NULL-terminated); waits for its port.
+ * Should the daemon be built with AddressSanitizer, its quarantine is kept small
+ * (ASAN_OPTIONS), so that freed memory is reused and RSS measures what the daemon holds. */
 void harness_start(harness *h, const char *meshsteerd, const char *const *args);
 /* GET path; returns the HTTP status, the body in a malloc'd string. */
 int harness_get(const harness *h, const char *path, char **body);
@@ -28,5 +32,8 @@ void harness_copy(const char *from, const char *to);
 /* 1 when the daemon's log contains needle. */
 int harness_log_has(const harness *h, const char *needle);
 long harness_rss_kb(const harness *h);
+/* Runs argv (NULL-terminated) to completion with stdout and stderr into out_path; returns the exit
+ * status (128 + signal when killed). */
+int harness_run(const char *const *argv, const char *out_path);
 
 #endif

@@ -8,7 +8,16 @@
  *            SIGHUP with a good one (new hello), SIGTERM (clients closed with 1001, exit 0)
  *   slow     a client that never reads while another receives at full rate; bounded memory
  *   record   --record writes a C3D that reads back as the replayed markers
- *   limits   max clients, token and Origin checks */
+ *   limits   max clients and token checks
+ *   origin   --origin same and --origin LIST: matching Origins accepted, others and none refused
+ *   idle     --idle-timeout 2: a client that accepts no frame is closed, a reading one is not
+ *   config   -c FILE round trip through the binary: the file's settings take effect, flags
+ *            override them, --check-config accepts it and names FILE:LINE for bad ones
+ *   horse    real data: a model trained on shared/data/meshes/horse-gallop (meshsteer train)
+ *            replaying its own rig markers at 60 Hz (meshsteer markers); hello, topology and
+ *            frames of the horse's 8,431 vertices, each frame close to the ground-truth mesh of
+ *            the marker frame it was made from, both encodings within the int16 bound.
+ *            Needs MESHSTEER (5th argument); skips (77) without the data. */
 #include "daemon_harness.h"
 #include "model.h"
 #include "test.h"
@@ -409,6 +418,440 @@ static void scenario_limits(void)
     printf("limits: token and client limit enforced\n");
 }
 
+/* ------------------------------------------------------------------ origin */
+
+/* Sends a WebSocket upgrade for /stream with the given Origin header (NULL: none) on a raw
+ * socket (lws's client would prefix "http://" to any origin); returns 1 when the daemon answers
+ * 101 Switching Protocols, 0 when it refuses. */
+static int origin_accepted(const char *origin)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)H.port)};
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT(connect(fd, (struct sockaddr *)&sa, sizeof sa) == 0);
+    char req[1024], hdr[300] = "";
+    if (origin)
+        snprintf(hdr, sizeof hdr, "Origin: %s\r\n", origin);
+    int n = snprintf(req, sizeof req,
+                     "GET /stream HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nUpgrade: websocket\r\n"
+                     "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                     "Sec-WebSocket-Version: 13\r\n%s\r\n",
+                     H.port, hdr);
+    ASSERT(write(fd, req, (size_t)n) == n);
+    char resp[256] = "";
+    size_t got = 0;
+    ssize_t r;
+    while (got < 12 && (r = read(fd, resp + got, sizeof resp - 1 - got)) > 0)
+        got += (size_t)r;
+    close(fd);
+    resp[got] = '\0';
+    int ok = !strncmp(resp, "HTTP/1.1 101", 12);
+    char *eol = strstr(resp, "\r\n");
+    if (eol)
+        *eol = '\0';
+    printf("origin %s: %s (%s)\n", origin ? origin : "(none)", ok ? "accepted" : "refused",
+           got ? resp : "connection closed");
+    return ok;
+}
+
+static void scenario_origin(void)
+{
+    char model[1200], source[1200], same_http[64], same_https[64];
+    snprintf(model, sizeof model, "%s/model.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?loop=1", H.dir);
+    const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0",
+                          "--origin", "same", "-v", NULL};
+    harness_start(&H, meshsteerd, args);
+    snprintf(same_http, sizeof same_http, "http://127.0.0.1:%d", H.port);
+    snprintf(same_https, sizeof same_https, "https://127.0.0.1:%d", H.port);
+    ASSERT(origin_accepted(same_http));
+    ASSERT(origin_accepted(same_https));
+    ASSERT(!origin_accepted("http://evil.example"));
+    ASSERT(!origin_accepted("http://127.0.0.1:1")); /* same host, other port */
+    ASSERT(!origin_accepted(NULL));
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients_rejected_total"), 3);
+    ASSERT(harness_log_has(&H, "Origin does not match Host"));
+    ASSERT(harness_log_has(&H, "no Origin header"));
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+
+    /* an explicit list: exact matches only */
+    const char *args2[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0",
+                           "--origin", "http://a.example, http://b.example:8080", "-v", NULL};
+    harness_start(&H, meshsteerd, args2);
+    ASSERT(origin_accepted("http://a.example"));
+    ASSERT(origin_accepted("http://b.example:8080"));
+    ASSERT(!origin_accepted("http://b.example"));
+    ASSERT(!origin_accepted("http://a.example.evil.example"));
+    ASSERT(!origin_accepted(same_http));
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients_rejected_total"), 3);
+    ASSERT(harness_log_has(&H, "Origin not allowed"));
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    printf("origin: same and list checks enforced\n");
+}
+
+/* ------------------------------------------------------------------ idle */
+
+static int stalled_client(int port);
+
+static void scenario_idle(void)
+{
+    start_default("--idle-timeout", "2");
+    struct lws_context *ctx = wsc_context();
+    wsc *A = wsc_connect(ctx, H.port, NULL, 0);
+    run_until(ctx, A, 10, 0, 15000);
+    int fd = stalled_client(H.port);
+    uint64_t t0 = wsc_now_us();
+    /* the stalled socket fills within a few frames; 2 s later the daemon closes it */
+    while (harness_metric(&H, "meshsteer_closed_idle_total") < 1 && wsc_now_us() - t0 < 10000000)
+        wsc_run(ctx, 100, NULL, NULL);
+    double secs = (double)(wsc_now_us() - t0) * 1e-6;
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_closed_idle_total"), 1);
+    printf("idle: stalled client closed after %.1f s (timeout 2 s)\n", secs);
+    ASSERT(secs >= 2.0 && secs < 6.0);
+    ASSERT(harness_log_has(&H, "accepted no frame for 2 s"));
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients"), 1);
+    /* the reading client was never idle and keeps streaming */
+    uint64_t n0 = A->total_frames;
+    run_until(ctx, A, n0 + 60, 0, 5000);
+    ASSERT(!A->closed);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_closed_idle_total"), 1);
+    /* the daemon's side is gone: reading the stalled socket ends in EOF or a reset */
+    char buf[65536];
+    ssize_t got = 1;
+    for (int i = 0; i < 100000 && got > 0; i++)
+        got = read(fd, buf, sizeof buf);
+    ASSERT(got <= 0);
+    close(fd);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(A);
+}
+
+/* ------------------------------------------------------------------ config */
+
+static void write_file(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    ASSERT(f);
+    ASSERT(fputs(text, f) >= 0);
+    ASSERT(fclose(f) == 0);
+}
+
+/* Runs meshsteerd with args and --check-config; returns its status, its output in out. */
+static int check_config(const char *const *args, char *out, size_t cap)
+{
+    const char *argv[32];
+    int n = 0;
+    argv[n++] = meshsteerd;
+    for (int i = 0; args[i]; i++)
+        argv[n++] = args[i];
+    argv[n++] = "--check-config";
+    argv[n] = NULL;
+    char log[1200];
+    snprintf(log, sizeof log, "%s/check.log", H.dir);
+    int st = harness_run(argv, log);
+    FILE *f = fopen(log, "r");
+    ASSERT(f);
+    size_t got = fread(out, 1, cap - 1, f);
+    out[got] = '\0';
+    fclose(f);
+    return st;
+}
+
+static void expect_config_error(const char *name, const char *text, const char *const *flags,
+                                const char *message)
+{
+    char path[1200], out[4096];
+    snprintf(path, sizeof path, "%s/%s", H.dir, name);
+    write_file(path, text);
+    const char *args[16] = {"-c", path};
+    int n = 2;
+    for (int i = 0; flags && flags[i]; i++)
+        args[n++] = flags[i];
+    args[n] = NULL;
+    int st = check_config(args, out, sizeof out);
+    if (st != 2 || !strstr(out, message)) {
+        fprintf(stderr, "%s: expected status 2 and '%s', got %d: %s\n", name, message, st, out);
+        exit(1);
+    }
+    printf("config %s: %s", name, out);
+}
+
+static void scenario_config(void)
+{
+    char conf[1200], text[4096], out[4096];
+    snprintf(conf, sizeof conf, "%s/meshsteerd.conf", H.dir);
+    snprintf(text, sizeof text,
+             "# meshsteerd settings for the test\n"
+             "model = %s/model.msm\n"
+             "source = \"replay:%s/trot.csv?loop=1\"\n"
+             "\n"
+             "listen = 127.0.0.1:0\n"
+             "max_clients = 1      # the flag below raises it to 2\n"
+             "token = sesame\n"
+             "encoding = int16\n",
+             H.dir, H.dir);
+    write_file(conf, text);
+    const char *only_file[] = {"-c", conf, NULL};
+    ASSERT_INT_EQ(check_config(only_file, out, sizeof out), 0);
+    ASSERT(strstr(out, "settings are valid"));
+
+    /* the file's settings take effect; --max-clients overrides the file's max_clients */
+    const char *args[] = {"-c", conf, "--max-clients", "2", NULL};
+    harness_start(&H, meshsteerd, args);
+    struct lws_context *ctx = wsc_context();
+    wsc *a = wsc_connect(ctx, H.port, "token=sesame", 0);
+    wsc *b = wsc_connect(ctx, H.port, "token=sesame", 0);
+    run_until(ctx, a, 5, 0, 15000);
+    run_until(ctx, b, 5, 0, 15000);
+    for (int i = 0; i < a->nframes; i++) /* int16 from the file, without asking */
+        ASSERT_INT_EQ(a->frames[i].encoding, 1);
+    wsc *c = wsc_connect(ctx, H.port, "token=sesame", 0); /* third: over the flag's limit */
+    wsc *no = wsc_connect(ctx, H.port, NULL, 0);          /* no token: the file's token holds */
+    want wc = {c, 0, 0, 0, 1, -1}, wn = {no, 0, 0, 0, 1, -1};
+    ASSERT(wsc_run(ctx, 5000, enough, &wc));
+    ASSERT(wsc_run(ctx, 5000, enough, &wn));
+    ASSERT(!c->connected && !no->connected);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients_rejected_total"), 2);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(a);
+    wsc_free(b);
+    wsc_free(c);
+    wsc_free(no);
+    printf("config: file settings in effect (int16, token), --max-clients overrode the file\n");
+
+    /* flags override: a file without model is completed by --model */
+    char partial[1200], tmp[1300];
+    snprintf(partial, sizeof partial, "%s/partial.conf", H.dir);
+    snprintf(tmp, sizeof tmp, "source = replay:%s/trot.csv\n", H.dir);
+    write_file(partial, tmp);
+    const char *with_flag[] = {"-c", partial, "--model", "x.msm", NULL};
+    ASSERT_INT_EQ(check_config(with_flag, out, sizeof out), 0);
+    const char *without[] = {"-c", partial, NULL};
+    ASSERT_INT_EQ(check_config(without, out, sizeof out), 2);
+    ASSERT(strstr(out, "no model"));
+
+    /* errors name the file and the line */
+    expect_config_error("bad_number.conf", "model = m.msm\n\nmax_clients = lots\n", NULL,
+                        "bad_number.conf:3: max_clients: 'lots' is not a whole number");
+    expect_config_error("unknown.conf", "model = m.msm\nsource = replay:x.csv\ncolour = blue\n",
+                        NULL, "unknown.conf:3: unknown key 'colour'");
+    expect_config_error("twice.conf", "# twice\nlisten = 1\nlisten = 2\n", NULL,
+                        "twice.conf:3: 'listen' set twice (first on line 2)");
+    expect_config_error("no_equals.conf", "model m.msm\n", NULL,
+                        "no_equals.conf:1: expected 'key = value'");
+    expect_config_error("quote.conf", "model = m.msm\ntoken = \"abc\n", NULL,
+                        "quote.conf:2: unbalanced quote");
+    expect_config_error("range.conf", "model = m.msm\nsource = replay:x.csv\nidle_timeout = 0\n",
+                        NULL, "range.conf:3: idle_timeout: 0 outside [1, 86400]");
+    expect_config_error("origin.conf", "origin = ftp://x\n", NULL,
+                        "origin.conf:1: origin: 'ftp://x' is not any, same or an http(s):// origin");
+    /* a bad flag on a good file names the flag */
+    const char *bad_flag[] = {"--max-clients", "0", NULL};
+    expect_config_error("good.conf", "model = m.msm\nsource = replay:x.csv\n", bad_flag,
+                        "--max_clients: max_clients: 0 outside [1, 10000]");
+    /* a missing file */
+    char missing[1200];
+    snprintf(missing, sizeof missing, "%s/absent.conf", H.dir);
+    const char *absent[] = {"-c", missing, NULL};
+    ASSERT_INT_EQ(check_config(absent, out, sizeof out), 2);
+    ASSERT(strstr(out, "absent.conf: No such file"));
+}
+
+/* ------------------------------------------------------------------ horse (real data) */
+
+static int run_cli(const char *const *argv)
+{
+    char log[1200];
+    snprintf(log, sizeof log, "%s/cli.log", H.dir);
+    int st = harness_run(argv, log);
+    if (st) {
+        fprintf(stderr, "%s %s failed with status %d; its output is in %s\n", argv[0], argv[1],
+                st, log);
+        exit(1);
+    }
+    return st;
+}
+
+static void scenario_horse(const char *meshsteer)
+{
+    const char *mesh = test_data("meshes/horse-gallop");
+    const char *rig = test_src("rigs/horse.json");
+    char model[1200], csv[1200], source[1300];
+    snprintf(model, sizeof model, "%s/horse.msm", H.dir);
+    snprintf(csv, sizeof csv, "%s/horse.csv", H.dir);
+    const char *train[] = {meshsteer, "train", "--mesh", mesh, "--rig", rig, "--frames", "0:24:2",
+                           "-o", model, NULL};
+    const char *markers[] = {meshsteer, "markers", "--mesh", mesh, "--rig", rig, "--fps", "60",
+                             "-o", csv, NULL};
+    uint64_t t0 = wsc_now_us();
+    run_cli(train);
+    run_cli(markers);
+    printf("horse: trained and exported markers in %.1f s\n", (double)(wsc_now_us() - t0) * 1e-6);
+
+    snprintf(source, sizeof source, "replay:%s?loop=1", csv);
+    const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0", "-v",
+                          NULL};
+    harness_start(&H, meshsteerd, args);
+    struct lws_context *ctx = wsc_context();
+    ASSERT(ctx);
+    wsc *A = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *B = wsc_connect(ctx, H.port, NULL, 1);
+    wsc_send(B, "{\"type\":\"encoding\",\"encoding\":\"int16\"}");
+    run_until(ctx, A, 120, 0, 20000);
+    want wb = {B, 120, 0, 0, 0, 1};
+    ASSERT(wsc_run(ctx, 20000, enough, &wb));
+    ASSERT_INT_EQ(A->protocol_errors, 0);
+    ASSERT_INT_EQ(B->protocol_errors, 0);
+
+    /* the hello: the horse, 8 markers, all bound; the source at 60 Hz */
+    char err[MDL_ERR_LEN];
+    mdl_meshseq *gt = NULL;
+    mdl_markers *mk = NULL;
+    ASSERT_OK(mdl_meshseq_read(mesh, NULL, &gt, err), err);
+    ASSERT_OK(mdl_markers_read(csv, NULL, &mk, err), err);
+    ASSERT_INT_EQ(gt->nv, 8431);
+    cJSON *h = cJSON_Parse(A->hello);
+    ASSERT(h);
+    ASSERT_INT_EQ(cJSON_GetObjectItem(h, "protocol")->valueint, 1);
+    const cJSON *m = cJSON_GetObjectItem(h, "model");
+    ASSERT_INT_EQ(cJSON_GetObjectItem(m, "vertices")->valueint, 8431);
+    ASSERT_INT_EQ(cJSON_GetObjectItem(m, "faces")->valueint, gt->nf);
+    ASSERT(cJSON_GetObjectItem(m, "parts")->valueint > 1);
+    ASSERT_NEAR(cJSON_GetObjectItem(cJSON_GetObjectItem(h, "source"), "fps")->valuedouble, 60, 1e-3);
+    const cJSON *hm = cJSON_GetObjectItem(h, "markers");
+    ASSERT_INT_EQ(cJSON_GetArraySize(hm), 8);
+    int col[8]; /* model marker -> CSV column */
+    for (int i = 0; i < 8; i++) {
+        const cJSON *o = cJSON_GetArrayItem(hm, i);
+        ASSERT(cJSON_IsTrue(cJSON_GetObjectItem(o, "bound")));
+        const char *src = cJSON_GetObjectItem(o, "source")->valuestring;
+        col[i] = -1;
+        for (int j = 0; j < mk->count; j++)
+            if (!strcmp(mk->names[j], src))
+                col[i] = j;
+        ASSERT(col[i] >= 0);
+    }
+    cJSON_Delete(h);
+
+    /* the topology: the horse's faces and rest pose */
+    ASSERT_INT_EQ(A->nv, 8431);
+    ASSERT_INT_EQ(A->nf, gt->nf);
+    ASSERT_INT_EQ(A->nm, 8);
+    const unsigned char *fa = A->topo + 56 + (size_t)A->nv * 12;
+    for (int i = 0; i < A->nf * 3; i++) {
+        uint32_t f = (uint32_t)fa[4 * i] | (uint32_t)fa[4 * i + 1] << 8 |
+                     (uint32_t)fa[4 * i + 2] << 16 | (uint32_t)fa[4 * i + 3] << 24;
+        ASSERT_INT_EQ(f, gt->F[i]);
+    }
+
+    /* frames: increasing sequence, plausible stamps, 60 Hz */
+    for (int i = 0; i < A->nframes; i++) {
+        const wsc_frame *f = &A->frames[i];
+        ASSERT_INT_EQ(f->encoding, 0);
+        if (i > 0) {
+            ASSERT(f->seq > A->frames[i - 1].seq);
+            ASSERT(f->t_capture > A->frames[i - 1].t_capture);
+        }
+        ASSERT(f->t_capture <= f->t_synth && f->t_synth <= f->t_send && f->t_send <= f->t_recv);
+        ASSERT_NEAR_I((double)(f->t_recv - f->t_capture), 0, 500000, i);
+    }
+    const wsc_frame *first = &A->frames[0], *last = &A->frames[A->nframes - 1];
+    double span = (double)(last->t_capture - first->t_capture) * 1e-6;
+    double rate = (double)(last->seq - first->seq) / span;
+    printf("horse: %d frames at %.1f Hz (source 60 Hz), %d vertices, %d faces\n", A->nframes, rate,
+           A->nv, A->nf);
+    ASSERT_NEAR(rate, 60, 6);
+
+    /* each frame against the ground truth of the marker frame it came from (found by its
+     * markers, which the daemon passes through unchanged) */
+    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+    for (int i = 0; i < gt->nv * 3; i++) {
+        lo[i % 3] = gt->V[i] < lo[i % 3] ? gt->V[i] : lo[i % 3];
+        hi[i % 3] = gt->V[i] > hi[i % 3] ? gt->V[i] : hi[i % 3];
+    }
+    double diag = sqrt((double)(hi[0] - lo[0]) * (hi[0] - lo[0]) +
+                       (double)(hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                       (double)(hi[2] - lo[2]) * (hi[2] - lo[2]));
+    double worst_mean = 0, sum_mean = 0;
+    int checked = 0, seen[64] = {0};
+    for (int i = 0; i < A->nframes; i++) {
+        const wsc_frame *f = &A->frames[i];
+        int best = -1;
+        double bestd = 1e30;
+        for (int k = 0; k < mk->frames; k++) {
+            double dd = 0;
+            for (int j = 0; j < 8; j++)
+                for (int a = 0; a < 3; a++) {
+                    double e = (double)f->M[j * 3 + a] -
+                               (double)mk->P[((size_t)k * (size_t)mk->count + (size_t)col[j]) * 3 + (size_t)a];
+                    dd += e * e;
+                }
+            if (dd < bestd) {
+                bestd = dd;
+                best = k;
+            }
+        }
+        ASSERT_NEAR_I(sqrt(bestd), 0, 1e-6, i); /* the markers are a row of the CSV, exactly */
+        ASSERT(best < gt->frames && best < 64);
+        seen[best] = 1;
+        double mean = 0;
+        const float *g = gt->V + (size_t)best * (size_t)gt->nv * 3;
+        for (int v = 0; v < gt->nv; v++) {
+            double dx = f->V[v * 3] - g[v * 3], dy = f->V[v * 3 + 1] - g[v * 3 + 1],
+                   dz = f->V[v * 3 + 2] - g[v * 3 + 2];
+            mean += sqrt(dx * dx + dy * dy + dz * dz);
+        }
+        mean /= gt->nv;
+        worst_mean = mean > worst_mean ? mean : worst_mean;
+        sum_mean += mean;
+        checked++;
+    }
+    int distinct = 0;
+    for (int k = 0; k < 64; k++)
+        distinct += seen[k];
+    printf("horse: %d frames against ground truth (%d distinct poses of %d): mean vertex error "
+           "%.2f%% of the bounding-box diagonal on average, %.2f%% in the worst frame\n",
+           checked, distinct, gt->frames, 100 * sum_mean / checked / diag, 100 * worst_mean / diag);
+    ASSERT(distinct >= 24);                   /* most of the gallop went by */
+    ASSERT(worst_mean < 0.03 * diag);         /* every frame is the right pose of the horse */
+
+    /* both encodings decode to the same mesh within the stated bound */
+    int compared = 0;
+    double worst = 0;
+    for (int i = 0; i < B->nframes; i++) {
+        const wsc_frame *q = &B->frames[i];
+        if (q->encoding != 1)
+            continue;
+        for (int j = 0; j < A->nframes; j++) {
+            const wsc_frame *p = &A->frames[j];
+            if (p->seq != q->seq)
+                continue;
+            ASSERT(!(q->flags & 2));
+            for (int k = 0; k < A->nv * 3; k++) {
+                int a = k % 3;
+                double bound = (B->qmax[a] - B->qmin[a]) / 131070.0 * 1.0001 + 1e-6;
+                double d = fabs((double)p->V[k] - (double)q->V[k]);
+                worst = d / bound > worst ? d / bound : worst;
+                ASSERT_NEAR_I(q->V[k], p->V[k], bound, k);
+            }
+            compared++;
+        }
+    }
+    printf("horse: encodings agree on %d frames, worst error %.3f of the bound\n", compared, worst);
+    ASSERT(compared >= 60);
+
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_drops_total{reason=\"synth_failed\"}"), 0);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_partial_writes_total"), 0);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(A);
+    wsc_free(B);
+    mdl_meshseq_destroy(gt);
+    mdl_markers_destroy(mk);
+}
+
 static void kill_daemon(void)
 {
     if (H.pid > 0 && kill(H.pid, 0) == 0)
@@ -417,13 +860,21 @@ static void kill_daemon(void)
 
 int main(int argc, char **argv)
 {
-    if (argc != 4) {
-        fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL stream|slow|record|limits\n");
+    if (argc != 4 && argc != 5) {
+        fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
+                        "stream|slow|record|limits|origin|idle|config|horse [MESHSTEER]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
     meshsteerd = argv[1];
-    harness_fixtures(&H, argv[2]);
+    if (!strcmp(argv[3], "horse")) {
+        if (argc != 5)
+            return 2;
+        test_data("meshes/horse-gallop"); /* skip before training anything */
+        harness_dir(&H);
+    } else {
+        harness_fixtures(&H, argv[2]);
+    }
     atexit(kill_daemon); /* a failed assertion must not leave the daemon running */
     if (!strcmp(argv[3], "stream"))
         scenario_stream();
@@ -433,6 +884,14 @@ int main(int argc, char **argv)
         scenario_record();
     else if (!strcmp(argv[3], "limits"))
         scenario_limits();
+    else if (!strcmp(argv[3], "origin"))
+        scenario_origin();
+    else if (!strcmp(argv[3], "idle"))
+        scenario_idle();
+    else if (!strcmp(argv[3], "config"))
+        scenario_config();
+    else if (!strcmp(argv[3], "horse"))
+        scenario_horse(argv[4]);
     else
         return 2;
     char cmd[1200];

@@ -69,6 +69,7 @@ static void on_binary(wsc *c, const unsigned char *m, size_t len)
     f->t_send = u64(m + 48);
     f->t_recv = now;
     f->V = NULL;
+    f->M = NULL;
     if (c->keep_vertices) {
         f->V = malloc(sizeof(float) * (size_t)nv * 3);
         const unsigned char *p = m + 56;
@@ -81,6 +82,10 @@ static void on_binary(wsc *c, const unsigned char *m, size_t len)
                 f->V[i] = c->qmin[a] + (float)(q + 32768) * (c->qmax[a] - c->qmin[a]) / 65535.0f;
             }
         }
+        f->M = malloc(sizeof(float) * (size_t)(nm > 0 ? nm : 1) * 3);
+        const unsigned char *q = m + 56 + ((vb + 3) & ~(size_t)3);
+        for (int i = 0; i < nm * 3; i++)
+            f->M[i] = f32(q + 4 * (size_t)i);
     }
 }
 
@@ -180,6 +185,7 @@ struct lws_context *wsc_context(void)
     memset(&info, 0, sizeof info);
     info.port = CONTEXT_PORT_NO_LISTEN;
     info.protocols = protocols;
+    info.pt_serv_buf_size = 65536; /* read up to 64 KB per poll round, not 4 KB */
     lws_set_log_level(LLL_ERR, NULL);
     struct lws_context *ctx = lws_create_context(&info);
     if (ctx) {
@@ -191,6 +197,12 @@ struct lws_context *wsc_context(void)
 
 wsc *wsc_connect(struct lws_context *ctx, int port, const char *query, int keep_vertices)
 {
+    return wsc_connect_origin(ctx, port, query, "127.0.0.1", keep_vertices);
+}
+
+wsc *wsc_connect_origin(struct lws_context *ctx, int port, const char *query, const char *origin,
+                        int keep_vertices)
+{
     wsc *c = calloc(1, sizeof *c);
     c->keep_vertices = keep_vertices;
     static char path[512];
@@ -201,8 +213,10 @@ wsc *wsc_connect(struct lws_context *ctx, int port, const char *query, int keep_
     ci.address = "127.0.0.1";
     ci.port = port;
     ci.path = path;
-    ci.host = "127.0.0.1";
-    ci.origin = "127.0.0.1";
+    static char host[64];
+    snprintf(host, sizeof host, "127.0.0.1:%d", port);
+    ci.host = host;
+    ci.origin = origin;
     ci.protocol = "meshsteer.v1";
     ci.userdata = c;
     ci.pwsi = &c->wsi;
@@ -247,8 +261,10 @@ void wsc_free(wsc *c)
 {
     if (!c)
         return;
-    for (int i = 0; i < c->nframes; i++)
+    for (int i = 0; i < c->nframes; i++) {
         free(c->frames[i].V);
+        free(c->frames[i].M);
+    }
     for (int i = 0; i < c->ntexts; i++)
         free(c->texts[i]);
     for (int i = 0; i < c->nout; i++)

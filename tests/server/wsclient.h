@@ -15,6 +15,7 @@ typedef struct wsc_frame {
     int encoding, flags, skipped;
     uint32_t generation;
     float *V; /* nv x 3 decoded (only when keep_vertices) */
+    float *M; /* nm x 3 marker positions, model order (only when keep_vertices) */
 } wsc_frame;
 
 typedef struct wsc {
@@ -44,8 +45,11 @@ typedef struct wsc {
 } wsc;
 
 struct lws_context *wsc_context(void);
-/* Opens ws://127.0.0.1:port/stream[?query]; NULL query for none. */
+/* Opens ws://127.0.0.1:port/stream[?query]; NULL query for none. Origin: 127.0.0.1. */
 wsc *wsc_connect(struct lws_context *ctx, int port, const char *query, int keep_vertices);
+/* The same with a given Origin header (NULL: none); Host is 127.0.0.1:port, as a browser's. */
+wsc *wsc_connect_origin(struct lws_context *ctx, int port, const char *query, const char *origin,
+                        int keep_vertices);
 void wsc_send(wsc *c, const char *text);
 void wsc_send_binary(wsc *c, const void *data, size_t len);
 /* Services the context until pred(ud) is true or timeout_ms passes; returns pred's last value. */

@@ -3,6 +3,9 @@
 # meshsteerd serving clients/web, runs viewer.mjs (playwright-core + Debian's chromium) against it,
 # including a daemon restart on the same port to check that the viewer reconnects by itself.
 # Usage: run_viewer.sh MESHSTEERD MAKE_MODEL SCREENSHOT.png        Exit 77 = skipped.
+#        run_viewer.sh MESHSTEERD demo:MESHSTEER SCREENSHOT.png
+# The demo form does what `scripts/run.sh demo` does: `meshsteer demo --out DIR`, then meshsteerd
+# on DIR/model.msm replaying DIR/trot.csv with no --web-root (the viewer it finds by itself).
 set -euo pipefail
 meshsteerd=$1 make_model=$2 shot=$3
 here=$(cd "$(dirname "$0")" && pwd)
@@ -19,14 +22,24 @@ cleanup() {
     rm -rf "$dir"
 }
 trap cleanup EXIT
-"$make_model" "$dir" >/dev/null
+webarg="--web-root \"$web\""
+case "$make_model" in
+demo:*)
+    "${make_model#demo:}" demo --out "$dir" >"$dir/demo.txt"
+    cp "$dir/model.msm" "$dir/example.msm"
+    webarg=""
+    ;;
+*)
+    "$make_model" "$dir" >/dev/null
+    ;;
+esac
 
 # start.sh PORT: starts the daemon in the background, waits until it listens, prints the port
 cat >"$dir/start.sh" <<EOS
 #!/usr/bin/env bash
 : >"$dir/log.\$\$"
 "$meshsteerd" --model "$dir/example.msm" --source "replay:$dir/trot.csv?loop=1" \
-    --listen 127.0.0.1:\$1 --web-root "$web" 2>"$dir/log.\$\$" </dev/null >/dev/null &
+    --listen 127.0.0.1:\$1 $webarg 2>"$dir/log.\$\$" </dev/null >/dev/null &
 echo \$! >"$dir/pid"
 for i in \$(seq 100); do
     p=\$(sed -n 's|.*listening on http://127.0.0.1:\([0-9]*\)/.*|\1|p' "$dir/log.\$\$")

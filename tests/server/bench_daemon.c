@@ -1,0 +1,211 @@
+/* bench_daemon.c - the daemon benchmark of docs/PERFORMANCE.md (meson test --benchmark): the horse
+ * model (shared/data/meshes/horse-gallop, 8,431 vertices) driven by its own rig markers replayed
+ * at 60 Hz, meshsteer-load on the same host, per row:
+ *   end-to-end latency (capture -> receipt) p50/p99, frames received vs sent, frames/s per client,
+ *   the daemon's capture -> send latency, from the frames' stamps and from /metrics (the
+ *   histogram's change over the row, as bucket bounds);
+ * then the largest client count at which every int16 client still gets 60 fps (>= 95 % of the
+ * source's frames), searched upwards.
+ * Usage: bench_daemon MESHSTEERD MESHSTEER MESHSTEER_LOAD [SECONDS_PER_ROW] [MAX_CLIENTS_TRIED]
+ * Skips (77) without the shared data. Prints a Markdown table. */
+#include "daemon_harness.h"
+#include "test.h"
+
+#include <cjson/cJSON.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#define NB 32
+
+static harness H;
+
+typedef struct hist {
+    double le[NB];
+    double count[NB];
+    int n;
+} hist;
+
+static void read_hist(const char *name, hist *h)
+{
+    char *body;
+    ASSERT_INT_EQ(harness_get(&H, "/metrics", &body), 200);
+    h->n = 0;
+    size_t nl = strlen(name);
+    for (char *line = strtok(body, "\n"); line; line = strtok(NULL, "\n")) {
+        if (strncmp(line, name, nl) || strncmp(line + nl, "_bucket{le=\"", 12))
+            continue;
+        const char *v = line + nl + 12;
+        double le = !strncmp(v, "+Inf", 4) ? 1e9 : atof(v);
+        const char *sp = strrchr(line, ' ');
+        if (sp && h->n < NB) {
+            h->le[h->n] = le;
+            h->count[h->n++] = atof(sp + 1);
+        }
+    }
+    free(body);
+}
+
+/* The bucket bound (ms) under which the q-quantile of the observations between a and b lies. */
+static double hist_quant(const hist *a, const hist *b, double q)
+{
+    double total = b->count[b->n - 1] - a->count[a->n - 1];
+    if (total <= 0)
+        return 0;
+    for (int i = 0; i < b->n; i++)
+        if (b->count[i] - a->count[i] >= q * total)
+            return b->le[i] * 1e3;
+    return 1e12;
+}
+
+typedef struct row {
+    int clients;
+    const char *enc;
+    cJSON *j;
+    double m50, m99; /* /metrics capture -> send, bucket bounds in ms */
+    double synth_busy;
+} row;
+
+static double num(const cJSON *j, const char *k)
+{
+    const cJSON *v = cJSON_GetObjectItem(j, k);
+    return cJSON_IsNumber(v) ? v->valuedouble : -1;
+}
+
+static void run_row(const char *load, row *r, double secs)
+{
+    hist a, b;
+    read_hist("meshsteer_latency_seconds", &a);
+    double busy0 = harness_metric(&H, "meshsteer_drops_total{reason=\"synth_busy\"}");
+    char n[16], t[32], port[16], out[1200];
+    snprintf(n, sizeof n, "%d", r->clients);
+    snprintf(t, sizeof t, "%g", secs);
+    snprintf(port, sizeof port, "%d", H.port);
+    snprintf(out, sizeof out, "%s/load-%d-%s.json", H.dir, r->clients, r->enc);
+    const char *argv[] = {load, "-n", n, "-t", t, "-w", "1.5", "-e", r->enc, "-p", port, "-j", NULL};
+    int st = harness_run(argv, out);
+    read_hist("meshsteer_latency_seconds", &b);
+    r->synth_busy = harness_metric(&H, "meshsteer_drops_total{reason=\"synth_busy\"}") - busy0;
+    r->m50 = hist_quant(&a, &b, 0.5);
+    r->m99 = hist_quant(&a, &b, 0.99);
+    FILE *f = fopen(out, "r");
+    ASSERT(f);
+    char buf[4096];
+    size_t got = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    buf[got] = '\0';
+    const char *js = strchr(buf, '{');
+    r->j = js ? cJSON_Parse(js) : NULL;
+    if (!r->j || st > 1) {
+        fprintf(stderr, "meshsteer-load -n %d -e %s failed (%d): %s\n", r->clients, r->enc, st,
+                buf);
+        exit(1);
+    }
+}
+
+static void print_row(const row *r)
+{
+    const cJSON *j = r->j;
+    double recv = num(j, "received"), sent = num(j, "sent");
+    printf("| %d | %s | %.0f / %.0f (%.1f %%) | %.1f (slowest %.1f) | %.2f ms | %.2f ms | "
+           "%.2f / %.2f ms | <= %g / <= %g ms | %.0f |\n",
+           r->clients, r->enc, recv, sent, sent > 0 ? 100 * recv / sent : 0, num(j, "fps_mean"),
+           num(j, "fps_min"), num(j, "e2e_p50_ms"), num(j, "e2e_p99_ms"), num(j, "server_p50_ms"),
+           num(j, "server_p99_ms"), r->m50, r->m99, r->synth_busy);
+    fflush(stdout);
+}
+
+static int holds_60(const row *r)
+{
+    return num(r->j, "connected") == r->clients && num(r->j, "fps_min") >= 0.95 * 60;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 4 || argc > 6) {
+        fprintf(stderr, "usage: bench_daemon MESHSTEERD MESHSTEER MESHSTEER_LOAD [SECONDS] "
+                        "[MAX_CLIENTS_TRIED]\n");
+        return 2;
+    }
+    signal(SIGPIPE, SIG_IGN);
+    const char *meshsteerd = argv[1], *meshsteer = argv[2], *load = argv[3];
+    double secs = argc > 4 ? atof(argv[4]) : 5;
+    int max_tried = argc > 5 ? atoi(argv[5]) : 512;
+    const char *mesh = test_data("meshes/horse-gallop");
+    const char *rig = test_src("rigs/horse.json");
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_NOFILE, &rl) == 0 && rl.rlim_cur < rl.rlim_max) {
+        rl.rlim_cur = rl.rlim_max; /* a few hundred sockets on each side */
+        setrlimit(RLIMIT_NOFILE, &rl);
+    }
+    harness_dir(&H);
+    char model[1200], csv[1200], source[1300], log[1200];
+    snprintf(model, sizeof model, "%s/horse.msm", H.dir);
+    snprintf(csv, sizeof csv, "%s/horse.csv", H.dir);
+    snprintf(log, sizeof log, "%s/cli.log", H.dir);
+    const char *train[] = {meshsteer, "train", "--mesh", mesh, "--rig", rig, "--frames", "0:24:2",
+                           "-o", model, NULL};
+    const char *markers[] = {meshsteer, "markers", "--mesh", mesh, "--rig", rig, "--fps", "60",
+                             "-o", csv, NULL};
+    if (harness_run(train, log) || harness_run(markers, log)) {
+        fprintf(stderr, "meshsteer train/markers failed; see %s\n", log);
+        return 1;
+    }
+    snprintf(source, sizeof source, "replay:%s?loop=1", csv);
+    const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0",
+                          "--max-clients", "10000", NULL};
+    harness_start(&H, meshsteerd, args);
+
+    double load1 = 0;
+    FILE *la = fopen("/proc/loadavg", "r");
+    if (la) {
+        if (fscanf(la, "%lf", &load1) != 1)
+            load1 = 0;
+        fclose(la);
+    }
+    printf("horse model (8,431 vertices), replay at 60 Hz, %g s per row after 1.5 s warm-up; "
+           "%ld CPUs, load average %.2f at start\n\n",
+           secs, sysconf(_SC_NPROCESSORS_ONLN), load1);
+    printf("| clients | encoding | received / sent | frames/s per client | e2e p50 | e2e p99 | "
+           "capture->send p50 / p99 (frames) | capture->send p50 / p99 (/metrics) | "
+           "synth_busy drops |\n|---:|---|---|---|---:|---:|---|---|---:|\n");
+    row rows[4] = {{1, "int16", NULL, 0, 0, 0}, {1, "float32", NULL, 0, 0, 0},
+                   {64, "int16", NULL, 0, 0, 0}, {64, "float32", NULL, 0, 0, 0}};
+    for (int i = 0; i < 4; i++) {
+        run_row(load, &rows[i], secs);
+        print_row(&rows[i]);
+    }
+    /* the largest int16 client count that holds 60 fps */
+    int best = holds_60(&rows[2]) ? 64 : 0;
+    static const int steps[] = {96, 128, 160, 192, 256, 320, 384, 448, 512, 640, 768, 1024};
+    for (size_t k = 0; best > 0 && k < sizeof steps / sizeof steps[0]; k++) {
+        if (steps[k] > max_tried)
+            break;
+        row r = {steps[k], "int16", NULL, 0, 0, 0};
+        run_row(load, &r, secs);
+        print_row(&r);
+        int ok = holds_60(&r);
+        cJSON_Delete(r.j);
+        if (!ok)
+            break;
+        best = steps[k];
+    }
+    printf("\nlargest int16 client count holding 60 fps (every client >= 57 frames/s): %d%s\n",
+           best, best >= max_tried ? " (the largest tried)" : "");
+    double p99_1 = num(rows[0].j, "e2e_p99_ms"), p99_64 = num(rows[2].j, "e2e_p99_ms");
+    printf("goal p99 < 5 ms with 1 client (int16): %.2f ms, %s\n", p99_1,
+           p99_1 < 5 ? "met" : "not met");
+    printf("goal p99 < 20 ms with 64 clients (int16): %.2f ms, %s\n", p99_64,
+           p99_64 < 20 ? "met" : "not met");
+    for (int i = 0; i < 4; i++)
+        cJSON_Delete(rows[i].j);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 10000), 0);
+    char cmd[1200];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", H.dir);
+    if (system(cmd) != 0)
+        fprintf(stderr, "could not remove %s\n", H.dir);
+    return 0;
+}
