@@ -6,6 +6,7 @@
  * Pause, seek, a speed change and a late frame (> REPLAY_LATE_US behind) re-anchor the clock at
  * the current time, so the stream never bursts to catch up. The frame's capture stamp is the
  * clock when it was released. Everything is read at open; read() copies and allocates nothing. */
+#include "drv_err.h"
 #include "drivers.h"
 #include "model.h"
 
@@ -32,18 +33,6 @@ typedef struct replay {
     uint64_t t_anchor; /* us */
     double fps;
 } replay;
-
-static int rp_err(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int rp_err(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, DRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
 
 static uint64_t now_us(void)
 {
@@ -78,9 +67,9 @@ static int parse_num(const char *file, const char *key, const char *val, double 
     errno = 0;
     double v = strtod(val, &end);
     if (end == val || *end || errno || !isfinite(v))
-        return rp_err(err, -EINVAL, "replay %s: option %s: '%s' is not a number", file, key, val);
+        return drv__err(err, -EINVAL, "replay %s: option %s: '%s' is not a number", file, key, val);
     if (v < lo || v > hi)
-        return rp_err(err, -ERANGE, "replay %s: option %s=%g outside [%g, %g]", file, key, v, lo,
+        return drv__err(err, -ERANGE, "replay %s: option %s=%g outside [%g, %g]", file, key, v, lo,
                       hi);
     *out = v;
     return 0;
@@ -97,7 +86,7 @@ static int parse_up(const char *file, const char *val, int *up, char *err)
             *up = axes[i].up;
             return 0;
         }
-    return rp_err(err, -EINVAL, "replay %s: option up='%s' (expected x, y, z, -x, -y, -z or auto)",
+    return drv__err(err, -EINVAL, "replay %s: option up='%s' (expected x, y, z, -x, -y, -z or auto)",
                   file, val);
 }
 
@@ -106,9 +95,9 @@ static int replay_open(drv_source *s, const char *arg, char *err)
     char path[4096];
     size_t alen = strlen(arg);
     if (alen == 0)
-        return rp_err(err, -EINVAL, "replay: missing file name (replay:FILE?loop=1&speed=1)");
+        return drv__err(err, -EINVAL, "replay: missing file name (replay:FILE?loop=1&speed=1)");
     if (alen >= sizeof path)
-        return rp_err(err, -ENAMETOOLONG, "replay: file name too long");
+        return drv__err(err, -ENAMETOOLONG, "replay: file name too long");
     memcpy(path, arg, alen + 1);
     char *q = strrchr(path, '?');
     if (q)
@@ -120,7 +109,7 @@ static int replay_open(drv_source *s, const char *arg, char *err)
          kv = strtok_r(NULL, "&", &save)) {
         char *eq = strchr(kv, '=');
         if (!eq)
-            return rp_err(err, -EINVAL, "replay %s: option '%s' needs a value (key=value)", path,
+            return drv__err(err, -EINVAL, "replay %s: option '%s' needs a value (key=value)", path,
                           kv);
         *eq++ = '\0';
         int r;
@@ -135,36 +124,36 @@ static int replay_open(drv_source *s, const char *arg, char *err)
         else if (!strcmp(kv, "up"))
             r = parse_up(path, eq, &o.up, err);
         else
-            r = rp_err(err, -EINVAL,
+            r = drv__err(err, -EINVAL,
                        "replay %s: unknown option '%s' (known: loop, speed, start, scale, up)", path,
                        kv);
         if (r)
             return r;
         if (!strcmp(kv, "loop") && loop != 0 && loop != 1)
-            return rp_err(err, -EINVAL, "replay %s: option loop must be 0 or 1", path);
+            return drv__err(err, -EINVAL, "replay %s: option loop must be 0 or 1", path);
     }
     if (start != floor(start))
-        return rp_err(err, -EINVAL, "replay %s: option start must be a whole frame number", path);
+        return drv__err(err, -EINVAL, "replay %s: option start must be a whole frame number", path);
 
     replay *r = calloc(1, sizeof *r);
     if (!r)
-        return rp_err(err, -ENOMEM, "replay %s: out of memory", path);
+        return drv__err(err, -ENOMEM, "replay %s: out of memory", path);
     char merr[MDL_ERR_LEN] = "";
     int rc = mdl_markers_read(path, &o, &r->m, merr);
     if (rc) {
         free(r);
-        return rp_err(err, rc, "replay: %s", merr);
+        return drv__err(err, rc, "replay: %s", merr);
     }
     if (r->m->frames <= 0 || r->m->count <= 0) {
         mdl_markers_destroy(r->m);
         free(r);
-        return rp_err(err, MDL_EFORMAT, "replay %s: no frames or no markers", path);
+        return drv__err(err, MDL_EFORMAT, "replay %s: no frames or no markers", path);
     }
     if (start >= r->m->frames) {
         int frames = r->m->frames;
         mdl_markers_destroy(r->m);
         free(r);
-        return rp_err(err, -ERANGE, "replay %s: start=%.0f but the file has %d frames", path, start,
+        return drv__err(err, -ERANGE, "replay %s: start=%.0f but the file has %d frames", path, start,
                       frames);
     }
     r->loop = loop != 0;
@@ -229,10 +218,10 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
 {
     replay *r = s->impl;
     if (!isfinite(value))
-        return rp_err(err, -EINVAL, "replay: %s: value is not finite", key);
+        return drv__err(err, -EINVAL, "replay: %s: value is not finite", key);
     if (!strcmp(key, "pause")) {
         if (value != 0 && value != 1)
-            return rp_err(err, -EINVAL, "replay: pause must be 0 or 1");
+            return drv__err(err, -EINVAL, "replay: pause must be 0 or 1");
         if (r->paused && value == 0)
             reanchor(r, now_us());
         r->paused = value != 0;
@@ -240,7 +229,7 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
     }
     if (!strcmp(key, "seek")) {
         if (value < 0 || value >= r->m->frames || value != floor(value))
-            return rp_err(err, -ERANGE, "replay: seek to %g outside the %d frames [0, %d]", value,
+            return drv__err(err, -ERANGE, "replay: seek to %g outside the %d frames [0, %d]", value,
                           r->m->frames, r->m->frames - 1);
         r->idx = (int)value;
         reanchor(r, now_us());
@@ -248,7 +237,7 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
     }
     if (!strcmp(key, "speed")) {
         if (!(value > 0 && value <= REPLAY_MAX_SPEED))
-            return rp_err(err, -ERANGE, "replay: speed %g outside (0, %g]", value,
+            return drv__err(err, -ERANGE, "replay: speed %g outside (0, %g]", value,
                           REPLAY_MAX_SPEED);
         uint64_t now = now_us(), due = due_us(r);
         reanchor(r, due > now ? due : now);
@@ -257,11 +246,11 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
     }
     if (!strcmp(key, "loop")) {
         if (value != 0 && value != 1)
-            return rp_err(err, -EINVAL, "replay: loop must be 0 or 1");
+            return drv__err(err, -EINVAL, "replay: loop must be 0 or 1");
         r->loop = value != 0;
         return 0;
     }
-    return rp_err(err, -ENOTSUP, "replay: unknown control '%s' (known: pause, seek, speed, loop)",
+    return drv__err(err, -ENOTSUP, "replay: unknown control '%s' (known: pause, seek, speed, loop)",
                   key);
 }
 

@@ -4,6 +4,7 @@
  * selects an entry of `registry`; the argument is handed to that source's open(). This file owns
  * the drv_source handle and the state machine CLOSED -> OPEN -> STREAMING -> (ENDED | LOST) that
  * /healthz shows; the implementations only fill in count, names and fps at open. */
+#include "drv_err.h"
 #include "drivers.h"
 
 #include <errno.h>
@@ -32,18 +33,6 @@ static const drv_source_ops *const registry[] = {
     NULL,
 };
 
-static int src_err(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int src_err(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, DRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 const drv_source_ops *drv_source_find_ops(const char *scheme)
 {
     if (!scheme)
@@ -58,12 +47,12 @@ int drv_source_open(const char *spec, drv_source **out, char *err)
 {
     *out = NULL;
     if (!spec || !*spec)
-        return src_err(err, -EINVAL, "source: empty spec");
+        return drv__err(err, -EINVAL, "source: empty spec");
     char scheme[32];
     const char *colon = strchr(spec, ':');
     size_t n = colon ? (size_t)(colon - spec) : strlen(spec);
     if (n == 0 || n >= sizeof scheme)
-        return src_err(err, -EINVAL, "source '%s': expected scheme:argument", spec);
+        return drv__err(err, -EINVAL, "source '%s': expected scheme:argument", spec);
     memcpy(scheme, spec, n);
     scheme[n] = '\0';
     const drv_source_ops *ops = drv_source_find_ops(scheme);
@@ -76,12 +65,12 @@ int drv_source_open(const char *spec, drv_source **out, char *err)
                 break;
             k += (size_t)w;
         }
-        return src_err(err, -ENOENT, "source '%s': unknown scheme '%s' (known: %s)", spec, scheme,
+        return drv__err(err, -ENOENT, "source '%s': unknown scheme '%s' (known: %s)", spec, scheme,
                        known);
     }
     drv_source *s = calloc(1, sizeof *s);
     if (!s)
-        return src_err(err, -ENOMEM, "source '%s': out of memory", spec);
+        return drv__err(err, -ENOMEM, "source '%s': out of memory", spec);
     s->ops = ops;
     s->state = DRV_STATE_CLOSED;
     int r = ops->open(s, colon ? colon + 1 : "", err);
@@ -92,7 +81,7 @@ int drv_source_open(const char *spec, drv_source **out, char *err)
     if (s->count <= 0 || !s->names) {
         ops->close(s);
         free(s);
-        return src_err(err, -EINVAL, "source '%s': no markers", spec);
+        return drv__err(err, -EINVAL, "source '%s': no markers", spec);
     }
     s->state = DRV_STATE_OPEN;
     *out = s;
@@ -102,7 +91,7 @@ int drv_source_open(const char *spec, drv_source **out, char *err)
 int drv_source_reopen(drv_source *s, const char *spec, char *err)
 {
     if (!s || !spec)
-        return src_err(err, -EINVAL, "source: NULL");
+        return drv__err(err, -EINVAL, "source: NULL");
     /* release the vanished device first: a driver may refuse to open a device twice */
     if (!s->detached) {
         if (s->state == DRV_STATE_STREAMING || s->state == DRV_STATE_LOST ||
@@ -122,7 +111,7 @@ int drv_source_reopen(drv_source *s, const char *spec, char *err)
         same = !strcmp(t->names[i], s->names[i]);
     if (!same) {
         drv_source_close(t);
-        return src_err(err, -EINVAL, "source '%s': reopened with another marker set", spec);
+        return drv__err(err, -EINVAL, "source '%s': reopened with another marker set", spec);
     }
     s->impl = t->impl;
     s->names = t->names;
@@ -136,9 +125,9 @@ int drv_source_reopen(drv_source *s, const char *spec, char *err)
 int drv_source_start(drv_source *s, char *err)
 {
     if (!s)
-        return src_err(err, -EINVAL, "source: NULL");
+        return drv__err(err, -EINVAL, "source: NULL");
     if (s->detached)
-        return src_err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
+        return drv__err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
     if (s->state == DRV_STATE_STREAMING)
         return 0;
     int r = s->ops->start(s, err);
@@ -150,14 +139,14 @@ int drv_source_start(drv_source *s, char *err)
 int drv_source_read(drv_source *s, drv_frame *f, int timeout_ms, char *err)
 {
     if (!s || !f)
-        return src_err(err, -EINVAL, "source: NULL");
+        return drv__err(err, -EINVAL, "source: NULL");
     if (s->state != DRV_STATE_STREAMING)
         return s->state == DRV_STATE_ENDED ? DRV_EEOF
              : s->state == DRV_STATE_LOST  ? DRV_ELOST
-                                           : src_err(err, -EINVAL, "source %s: not started",
+                                           : drv__err(err, -EINVAL, "source %s: not started",
                                                      s->ops->scheme);
     if (f->count < s->count || !f->xyz || !f->valid)
-        return src_err(err, -EINVAL, "source %s: frame buffers hold %d markers, need %d",
+        return drv__err(err, -EINVAL, "source %s: frame buffers hold %d markers, need %d",
                        s->ops->scheme, f->count, s->count);
     int r = s->ops->read(s, f, timeout_ms, err);
     if (r == 0)
@@ -172,11 +161,11 @@ int drv_source_read(drv_source *s, drv_frame *f, int timeout_ms, char *err)
 int drv_source_control(drv_source *s, const char *key, double value, char *err)
 {
     if (!s || !key)
-        return src_err(err, -EINVAL, "source: NULL");
+        return drv__err(err, -EINVAL, "source: NULL");
     if (!s->ops->control)
-        return src_err(err, -ENOTSUP, "source %s: no controls", s->ops->scheme);
+        return drv__err(err, -ENOTSUP, "source %s: no controls", s->ops->scheme);
     if (s->detached)
-        return src_err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
+        return drv__err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
     int r = s->ops->control(s, key, value, err);
     /* a seek may revive a replay that had ended */
     if (r == 0 && s->state == DRV_STATE_ENDED && !strcmp(key, "seek"))

@@ -1,4 +1,5 @@
 /* daemon_config.c - parsing and validation of meshsteerd's settings (see daemon_config.h). */
+#include "srv_err.h"
 #include "daemon_config.h"
 #include "encode.h"
 #include "log.h"
@@ -12,18 +13,6 @@
 
 #define CFG_MAX_FILE (1u << 20)
 #define CFG_MAX_LINE 8192
-
-static int cfg_err(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int cfg_err(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, SRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
 
 void srv_config_defaults(srv_config *c)
 {
@@ -42,7 +31,7 @@ static int set_str(char *dst, size_t cap, const char *key, const char *v, char *
 {
     size_t n = strlen(v);
     if (n >= cap)
-        return cfg_err(err, -ENAMETOOLONG, "%s: value longer than %zu bytes", key, cap - 1);
+        return srv_err(err, -ENAMETOOLONG, "%s: value longer than %zu bytes", key, cap - 1);
     memcpy(dst, v, n + 1);
     return 0;
 }
@@ -53,9 +42,9 @@ static int set_int(int *dst, const char *key, const char *v, long lo, long hi, c
     errno = 0;
     long x = strtol(v, &end, 10);
     if (end == v || *end || errno)
-        return cfg_err(err, -EINVAL, "%s: '%s' is not a whole number", key, v);
+        return srv_err(err, -EINVAL, "%s: '%s' is not a whole number", key, v);
     if (x < lo || x > hi)
-        return cfg_err(err, -ERANGE, "%s: %ld outside [%ld, %ld]", key, x, lo, hi);
+        return srv_err(err, -ERANGE, "%s: %ld outside [%ld, %ld]", key, x, lo, hi);
     *dst = (int)x;
     return 0;
 }
@@ -68,10 +57,10 @@ static int set_listen(srv_config *c, const char *v, char *err)
     if (v[0] == '[') {
         const char *close = strchr(v, ']');
         if (!close || close[1] != ':')
-            return cfg_err(err, -EINVAL, "listen: '%s' (expected [ADDR]:PORT)", v);
+            return srv_err(err, -EINVAL, "listen: '%s' (expected [ADDR]:PORT)", v);
         size_t n = (size_t)(close - v - 1);
         if (n == 0 || n >= sizeof host)
-            return cfg_err(err, -EINVAL, "listen: bad address in '%s'", v);
+            return srv_err(err, -EINVAL, "listen: bad address in '%s'", v);
         memcpy(host, v + 1, n);
         host[n] = '\0';
         port = close + 2;
@@ -80,7 +69,7 @@ static int set_listen(srv_config *c, const char *v, char *err)
         if (colon) {
             size_t n = (size_t)(colon - v);
             if (n == 0 || n >= sizeof host || memchr(v, ':', n))
-                return cfg_err(err, -EINVAL, "listen: '%s' (expected ADDR:PORT or PORT)", v);
+                return srv_err(err, -EINVAL, "listen: '%s' (expected ADDR:PORT or PORT)", v);
             memcpy(host, v, n);
             host[n] = '\0';
             port = colon + 1;
@@ -91,7 +80,7 @@ static int set_listen(srv_config *c, const char *v, char *err)
     }
     for (const char *p = host; *p; p++)
         if (!isalnum((unsigned char)*p) && !strchr(".-:_", *p))
-            return cfg_err(err, -EINVAL, "listen: bad character in address '%s'", host);
+            return srv_err(err, -EINVAL, "listen: bad character in address '%s'", host);
     int pn;
     int r = set_int(&pn, "listen port", port, 0, 65535, err);
     if (r)
@@ -104,18 +93,18 @@ static int set_listen(srv_config *c, const char *v, char *err)
 static int set_origin(srv_config *c, const char *v, char *err)
 {
     if (!*v)
-        return cfg_err(err, -EINVAL, "origin: empty (use any, same or a list of origins)");
+        return srv_err(err, -EINVAL, "origin: empty (use any, same or a list of origins)");
     if (strcmp(v, "any") && strcmp(v, "same")) {
         /* a comma list of scheme://host[:port] */
         char tmp[sizeof c->origin];
         if (strlen(v) >= sizeof tmp)
-            return cfg_err(err, -ENAMETOOLONG, "origin: list too long");
+            return srv_err(err, -ENAMETOOLONG, "origin: list too long");
         snprintf(tmp, sizeof tmp, "%s", v);
         for (char *save = NULL, *o = strtok_r(tmp, ",", &save); o; o = strtok_r(NULL, ",", &save)) {
             while (*o == ' ')
                 o++;
             if (strncmp(o, "http://", 7) && strncmp(o, "https://", 8))
-                return cfg_err(err, -EINVAL,
+                return srv_err(err, -EINVAL,
                                "origin: '%s' is not any, same or an http(s):// origin", o);
         }
     }
@@ -126,10 +115,10 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
 {
     if (!strcmp(key, "model"))
         return *v ? set_str(c->model, sizeof c->model, key, v, err)
-                  : cfg_err(err, -EINVAL, "model: empty path");
+                  : srv_err(err, -EINVAL, "model: empty path");
     if (!strcmp(key, "source"))
         return *v ? set_str(c->source, sizeof c->source, key, v, err)
-                  : cfg_err(err, -EINVAL, "source: empty spec");
+                  : srv_err(err, -EINVAL, "source: empty spec");
     if (!strcmp(key, "listen"))
         return set_listen(c, v, err);
     if (!strcmp(key, "record"))
@@ -143,7 +132,7 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
     if (!strcmp(key, "token")) {
         for (const char *p = v; *p; p++)
             if (!isgraph((unsigned char)*p) || strchr("&=#%", *p))
-                return cfg_err(err, -EINVAL, "token: use printable characters other than & = # %%");
+                return srv_err(err, -EINVAL, "token: use printable characters other than & = # %%");
         return set_str(c->token, sizeof c->token, key, v, err);
     }
     if (!strcmp(key, "origin"))
@@ -153,7 +142,7 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
     if (!strcmp(key, "log_level")) {
         int l = srv_log_level_parse(v);
         if (l < 0)
-            return cfg_err(err, -EINVAL, "log_level: '%s' (expected error, warn, notice, info, debug)",
+            return srv_err(err, -EINVAL, "log_level: '%s' (expected error, warn, notice, info, debug)",
                            v);
         c->log_level = l;
         return 0;
@@ -161,11 +150,11 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
     if (!strcmp(key, "encoding")) {
         int e = srv_encoding_parse(v);
         if (e < 0)
-            return cfg_err(err, -EINVAL, "encoding: '%s' (expected float32 or int16)", v);
+            return srv_err(err, -EINVAL, "encoding: '%s' (expected float32 or int16)", v);
         c->encoding = e;
         return 0;
     }
-    return cfg_err(err, -ENOENT,
+    return srv_err(err, -ENOENT,
                    "unknown key '%s' (known: model, source, listen, record, max_clients, "
                    "max_message, idle_timeout, token, origin, web_root, log_level, encoding)",
                    key);
@@ -198,13 +187,13 @@ int srv_config_parse(srv_config *c, const char *text, size_t len, const char *na
             end++;
         size_t n = end - pos;
         if (n >= sizeof line)
-            return cfg_err(err, -EINVAL, "%s:%d: line longer than %d bytes", name, lineno,
+            return srv_err(err, -EINVAL, "%s:%d: line longer than %d bytes", name, lineno,
                            CFG_MAX_LINE - 1);
         memcpy(line, text + pos, n);
         line[n] = '\0';
         pos = end + (end < len);
         if (memchr(line, '\0', n))
-            return cfg_err(err, -EINVAL, "%s:%d: NUL byte in line", name, lineno);
+            return srv_err(err, -EINVAL, "%s:%d: NUL byte in line", name, lineno);
         /* comments: '#' at the start or after whitespace (values such as URLs may hold '#') */
         for (char *h = line; (h = strchr(h, '#')); h++)
             if (h == line || h[-1] == ' ' || h[-1] == '\t') {
@@ -216,26 +205,26 @@ int srv_config_parse(srv_config *c, const char *text, size_t len, const char *na
             continue;
         char *eq = strchr(s, '=');
         if (!eq)
-            return cfg_err(err, -EINVAL, "%s:%d: expected 'key = value'", name, lineno);
+            return srv_err(err, -EINVAL, "%s:%d: expected 'key = value'", name, lineno);
         *eq = '\0';
         char *key = trim(s), *val = trim(eq + 1);
         if (!*key)
-            return cfg_err(err, -EINVAL, "%s:%d: missing key before '='", name, lineno);
+            return srv_err(err, -EINVAL, "%s:%d: missing key before '='", name, lineno);
         size_t vl = strlen(val);
         if (vl >= 2 && val[0] == '"' && val[vl - 1] == '"') {
             val[vl - 1] = '\0';
             val++;
         } else if (strchr(val, '"')) {
-            return cfg_err(err, -EINVAL, "%s:%d: unbalanced quote in value of '%s'", name, lineno,
+            return srv_err(err, -EINVAL, "%s:%d: unbalanced quote in value of '%s'", name, lineno,
                            key);
         }
         for (int i = 0; i < nseen; i++)
             if (!strcmp(seen[i], key))
-                return cfg_err(err, -EINVAL, "%s:%d: '%s' set twice (first on line %d)", name,
+                return srv_err(err, -EINVAL, "%s:%d: '%s' set twice (first on line %d)", name,
                                lineno, key, seen_line[i]);
         int r = srv_config_set(&tmp, key, val, e);
         if (r)
-            return cfg_err(err, r, "%s:%d: %s", name, lineno, e);
+            return srv_err(err, r, "%s:%d: %s", name, lineno, e);
         if (nseen < 16 && strlen(key) < sizeof seen[0]) {
             snprintf(seen[nseen], sizeof seen[0], "%s", key);
             seen_line[nseen++] = lineno;
@@ -249,20 +238,20 @@ int srv_config_read(srv_config *c, const char *path, char *err)
 {
     FILE *f = fopen(path, "rb");
     if (!f)
-        return cfg_err(err, -errno, "%s: %s", path, strerror(errno));
+        return srv_err(err, -errno, "%s: %s", path, strerror(errno));
     char *buf = malloc(CFG_MAX_FILE + 1);
     if (!buf) {
         fclose(f);
-        return cfg_err(err, -ENOMEM, "%s: out of memory", path);
+        return srv_err(err, -ENOMEM, "%s: out of memory", path);
     }
     size_t n = fread(buf, 1, CFG_MAX_FILE + 1, f);
     int rerr = ferror(f);
     fclose(f);
     int r;
     if (rerr)
-        r = cfg_err(err, -EIO, "%s: read error", path);
+        r = srv_err(err, -EIO, "%s: read error", path);
     else if (n > CFG_MAX_FILE)
-        r = cfg_err(err, -EFBIG, "%s: larger than %u bytes", path, CFG_MAX_FILE);
+        r = srv_err(err, -EFBIG, "%s: larger than %u bytes", path, CFG_MAX_FILE);
     else
         r = srv_config_parse(c, buf, n, path, err);
     free(buf);
@@ -272,8 +261,8 @@ int srv_config_read(srv_config *c, const char *path, char *err)
 int srv_config_validate(const srv_config *c, char *err)
 {
     if (!c->model[0])
-        return cfg_err(err, -EINVAL, "no model (--model FILE or 'model = FILE')");
+        return srv_err(err, -EINVAL, "no model (--model FILE or 'model = FILE')");
     if (!c->source[0])
-        return cfg_err(err, -EINVAL, "no source (--source SPEC or 'source = SPEC')");
+        return srv_err(err, -EINVAL, "no source (--source SPEC or 'source = SPEC')");
     return 0;
 }

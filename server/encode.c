@@ -1,5 +1,6 @@
 /* encode.c - hello, topology and frame messages of protocol 1, and the generation that owns them
  * (see encode.h and docs/PROTOCOL.md). */
+#include "srv_err.h"
 #include "encode.h"
 #include "daemon_config.h"
 
@@ -11,18 +12,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static int enc_err(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int enc_err(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, SRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
 
 static const char *const enc_names[SRV_ENC_COUNT] = {"float32", "int16"};
 
@@ -119,13 +108,13 @@ int srv_gen_create(const mdl_model_info *info, const int *map,
     *out = NULL;
     if (info->nv <= 0 || info->nf < 0 || info->nmarkers < 0 || !info->rest ||
         (info->nf > 0 && !info->F))
-        return enc_err(err, -EINVAL, "model has no mesh");
+        return srv_err(err, -EINVAL, "model has no mesh");
     if (info->nv > (1 << 24) || info->nf > (1 << 25) || info->nmarkers > 65535)
-        return enc_err(err, -EFBIG, "model too large to stream (%d vertices, %d faces)", info->nv,
+        return srv_err(err, -EFBIG, "model too large to stream (%d vertices, %d faces)", info->nv,
                        info->nf);
     srv_gen *g = calloc(1, sizeof *g);
     if (!g)
-        return enc_err(err, -ENOMEM, "out of memory");
+        return srv_err(err, -ENOMEM, "out of memory");
     atomic_init(&g->refs, 1);
     g->id = id;
     g->nv = info->nv;
@@ -140,7 +129,7 @@ int srv_gen_create(const mdl_model_info *info, const int *map,
             if (info->part[i] < 0 || info->part[i] >= g->nparts) {
                 int np = g->nparts;
                 free(g);
-                return enc_err(err, -EINVAL, "vertex %d: part %d outside [0, %d)", i,
+                return srv_err(err, -EINVAL, "vertex %d: part %d outside [0, %d)", i,
                                info->part[i], np);
             }
     /* the quantisation box */
@@ -184,7 +173,7 @@ int srv_gen_create(const mdl_model_info *info, const int *map,
         free(g->storage);
         free(g->map);
         free(g);
-        return enc_err(err, -ENOMEM, "out of memory for %zu bytes of frame buffers", total);
+        return srv_err(err, -ENOMEM, "out of memory for %zu bytes of frame buffers", total);
     }
     size_t hl = strlen(hello);
     g->hello = malloc(LWS_PRE + hl + 1);
@@ -193,7 +182,7 @@ int srv_gen_create(const mdl_model_info *info, const int *map,
         free(g->storage);
         free(g->map);
         free(g);
-        return enc_err(err, -ENOMEM, "out of memory");
+        return srv_err(err, -ENOMEM, "out of memory");
     }
     memcpy(g->hello + LWS_PRE, hello, hl + 1);
     cJSON_free(hello);

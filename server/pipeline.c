@@ -1,4 +1,5 @@
 /* pipeline.c - source thread -> synthesis thread -> latest frame (see pipeline.h). */
+#include "srv_err.h"
 #include "pipeline.h"
 #include "daemon_config.h"
 #include "log.h"
@@ -69,18 +70,6 @@ struct srv_pipeline {
     atomic_uint next_gen;
 };
 
-static int pl_err(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int pl_err(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, SRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 uint64_t srv_now_us(void)
 {
     struct timespec ts;
@@ -111,13 +100,13 @@ int srv_pipeline_load(const char *model_path, const drv_source *src, const char 
     mdl_model *model = NULL;
     int r = mdl_model_load(model_path, &model, e);
     if (r)
-        return pl_err(err, r, "model: %s", e);
+        return srv_err(err, r, "model: %s", e);
     mdl_model_info info;
     mdl_model_get_info(model, &info);
     int *map = calloc((size_t)(info.nmarkers > 0 ? info.nmarkers : 1), sizeof *map);
     if (!map) {
         mdl_model_destroy(model);
-        return pl_err(err, -ENOMEM, "model %s: out of memory", model_path);
+        return srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
     }
     r = mdl_model_bind_markers(model, (const char *const *)src->names, src->count, map);
     int bound = 0;
@@ -126,7 +115,7 @@ int srv_pipeline_load(const char *model_path, const drv_source *src, const char 
     if (r < 0 || bound == 0) {
         free(map);
         mdl_model_destroy(model);
-        return pl_err(err, r < 0 ? r : -ENOENT,
+        return srv_err(err, r < 0 ? r : -ENOENT,
                       "model %s: none of its %d markers is among the source's %d markers "
                       "(the rig's 'source' names must match the marker labels)",
                       model_path, info.nmarkers, src->count);
@@ -147,19 +136,19 @@ int srv_pipeline_load(const char *model_path, const drv_source *src, const char 
     free(map);
     if (r) {
         srv_bundle_fini(out);
-        return pl_err(err, r, "model %s: %s", model_path, e);
+        return srv_err(err, r, "model %s: %s", model_path, e);
     }
     r = mdl_synth_create(model, &out->synth, e);
     if (r) {
         srv_bundle_fini(out);
-        return pl_err(err, r, "model %s: synthesis: %s", model_path, e);
+        return srv_err(err, r, "model %s: synthesis: %s", model_path, e);
     }
     out->V = calloc((size_t)info.nv * 3, sizeof(float));
     out->mk = calloc((size_t)(info.nmarkers + 1) * 3, sizeof(float));
     out->mv = calloc((size_t)info.nmarkers + 1, 1);
     if (!out->V || !out->mk || !out->mv) {
         srv_bundle_fini(out);
-        return pl_err(err, -ENOMEM, "model %s: out of memory", model_path);
+        return srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
     }
     return 0;
 }
@@ -172,7 +161,7 @@ int srv_pipeline_create(drv_source *src, const char *spec, srv_bundle *b, srv_me
     *out = NULL;
     srv_pipeline *p = calloc(1, sizeof *p);
     if (!p)
-        return pl_err(err, -ENOMEM, "pipeline: out of memory");
+        return srv_err(err, -ENOMEM, "pipeline: out of memory");
     p->src = src;
     snprintf(p->spec, sizeof p->spec, "%s", spec ? spec : "");
     p->m = m;
@@ -190,7 +179,7 @@ int srv_pipeline_create(drv_source *src, const char *spec, srv_bundle *b, srv_me
         if (!p->slots[k].xyz || !p->slots[k].valid) {
             p->src = NULL; /* on failure the caller keeps the source and the bundle */
             srv_pipeline_destroy(p);
-            return pl_err(err, -ENOMEM, "pipeline: out of memory");
+            return srv_err(err, -ENOMEM, "pipeline: out of memory");
         }
     }
     if (record && *record) {
@@ -424,7 +413,7 @@ int srv_pipeline_start(srv_pipeline *p, char *err)
     char e[DRV_ERR_LEN];
     int r = drv_source_start(p->src, e);
     if (r)
-        return pl_err(err, r, "source: %s", e);
+        return srv_err(err, r, "source: %s", e);
     atomic_store(&p->src_state, p->src->state);
     /* the daemon's main thread takes the signals */
     sigset_t all, old;
@@ -440,7 +429,7 @@ int srv_pipeline_start(srv_pipeline *p, char *err)
     }
     pthread_sigmask(SIG_SETMASK, &old, NULL);
     if (r)
-        return pl_err(err, -r, "pipeline: cannot start threads: %s", strerror(r));
+        return srv_err(err, -r, "pipeline: cannot start threads: %s", strerror(r));
     p->started = 1;
     return 0;
 }

@@ -2,6 +2,7 @@
  * triangle scan conversion over the triangle's pixel bounding box (sample at pixel centres),
  * per-pixel z-buffer, Gouraud-interpolated Lambert intensity, PNG output through libpng.
  * See raster.h for the conventions. */
+#include "srv_err.h"
 #include "raster.h"
 #include "model.h"
 
@@ -25,18 +26,6 @@ struct srv_raster {
     float *nrm;    /* max_nv x 3: accumulated normals */
     float *shade;  /* max_nv: vertex intensity */
 };
-
-static int fail(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int fail(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, MDL_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
 
 static float dot3(const float a[3], const float b[3])
 {
@@ -115,14 +104,14 @@ int srv_raster_create(int cols, int rows, int cell_w, int cell_h, int max_nv, sr
 {
     *out = NULL;
     if (cols < 1 || rows < 1 || cell_w < 8 || cell_h < 8 || max_nv < 0)
-        return fail(err, -EINVAL, "raster: invalid sheet %d x %d cells of %d x %d pixels", cols,
+        return srv_err(err, -EINVAL, "raster: invalid sheet %d x %d cells of %d x %d pixels", cols,
                     rows, cell_w, cell_h);
     if ((long long)cols * cell_w > 32768 || (long long)rows * cell_h > 32768)
-        return fail(err, -EINVAL, "raster: sheet of %lld x %lld pixels is larger than 32768 x 32768",
+        return srv_err(err, -EINVAL, "raster: sheet of %lld x %lld pixels is larger than 32768 x 32768",
                     (long long)cols * cell_w, (long long)rows * cell_h);
     srv_raster *r = calloc(1, sizeof *r);
     if (!r)
-        return fail(err, -ENOMEM, "raster: out of memory");
+        return srv_err(err, -ENOMEM, "raster: out of memory");
     r->cols = cols;
     r->rows = rows;
     r->cell_w = cell_w;
@@ -138,7 +127,7 @@ int srv_raster_create(int cols, int rows, int cell_w, int cell_h, int max_nv, sr
     r->shade = malloc(nv * sizeof *r->shade);
     if (!r->rgb || !r->z || !r->scr || !r->nrm || !r->shade) {
         srv_raster_destroy(r);
-        return fail(err, -ENOMEM, "raster: out of memory for a %d x %d sheet", cols * cell_w,
+        return srv_err(err, -ENOMEM, "raster: out of memory for a %d x %d sheet", cols * cell_w,
                     rows * cell_h);
     }
     static const uint8_t white[3] = {255, 255, 255};
@@ -177,15 +166,15 @@ int srv_raster_draw_mesh(srv_raster *r, int cell, const srv_camera *c, const flo
                          const uint32_t *F, int nf, const uint8_t color[3], char *err)
 {
     if (nv < 0 || nv > r->max_nv)
-        return fail(err, -EINVAL, "raster: %d vertices, the sheet was sized for %d", nv, r->max_nv);
+        return srv_err(err, -EINVAL, "raster: %d vertices, the sheet was sized for %d", nv, r->max_nv);
     if (cell < 0 || cell >= r->cols * r->rows)
-        return fail(err, -EINVAL, "raster: no cell %d", cell);
+        return srv_err(err, -EINVAL, "raster: no cell %d", cell);
     if (c->w != r->cell_w || c->h != r->cell_h)
-        return fail(err, -EINVAL, "raster: camera for %d x %d cells, sheet cells are %d x %d", c->w,
+        return srv_err(err, -EINVAL, "raster: camera for %d x %d cells, sheet cells are %d x %d", c->w,
                     c->h, r->cell_w, r->cell_h);
     for (int f = 0; f < 3 * nf; f++)
         if (F[f] >= (uint32_t)nv)
-            return fail(err, -EINVAL, "raster: face %d uses vertex %u of %d", f / 3, F[f], nv);
+            return srv_err(err, -EINVAL, "raster: face %d uses vertex %u of %d", f / 3, F[f], nv);
 
     /* vertex normals (area-weighted), screen positions, Lambert intensity per vertex */
     memset(r->nrm, 0, (size_t)nv * 3 * sizeof *r->nrm);
@@ -330,7 +319,7 @@ int srv_raster_write_png(const srv_raster *r, const char *path, char *err)
 {
     FILE *f = fopen(path, "wb");
     if (!f)
-        return fail(err, -errno, "%s: cannot create: %s", path, strerror(errno));
+        return srv_err(err, -errno, "%s: cannot create: %s", path, strerror(errno));
     png_ctx ctx;
     ctx.msg[0] = 0;
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &ctx, png_on_error, png_on_warning);
@@ -338,12 +327,12 @@ int srv_raster_write_png(const srv_raster *r, const char *path, char *err)
     if (!png || !info) {
         png_destroy_write_struct(&png, NULL);
         fclose(f);
-        return fail(err, -ENOMEM, "%s: out of memory for libpng", path);
+        return srv_err(err, -ENOMEM, "%s: out of memory for libpng", path);
     }
     if (setjmp(ctx.jmp)) {
         png_destroy_write_struct(&png, &info);
         fclose(f);
-        return fail(err, -EIO, "%s: libpng: %s", path, ctx.msg);
+        return srv_err(err, -EIO, "%s: libpng: %s", path, ctx.msg);
     }
     png_init_io(png, f);
     png_set_IHDR(png, info, (png_uint_32)r->w, (png_uint_32)r->h, 8, PNG_COLOR_TYPE_RGB,
@@ -354,6 +343,6 @@ int srv_raster_write_png(const srv_raster *r, const char *path, char *err)
     png_write_end(png, NULL);
     png_destroy_write_struct(&png, &info);
     if (fclose(f) != 0)
-        return fail(err, -errno, "%s: write failed: %s", path, strerror(errno));
+        return srv_err(err, -errno, "%s: write failed: %s", path, strerror(errno));
     return 0;
 }

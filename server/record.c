@@ -1,4 +1,5 @@
 /* record.c - the marker stream recorder behind --record (see record.h). */
+#include "srv_err.h"
 #include "record.h"
 #include "daemon_config.h"
 #include "model.h"
@@ -20,25 +21,13 @@ struct srv_recorder {
     uint8_t *valid;
 };
 
-static int rec_err(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int rec_err(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, SRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 int srv_recorder_create(const char *path, int count, const char *const *names, double fps,
                         srv_recorder **out, char *err)
 {
     *out = NULL;
     srv_recorder *r = calloc(1, sizeof *r);
     if (!r)
-        return rec_err(err, -ENOMEM, "record %s: out of memory", path);
+        return srv_err(err, -ENOMEM, "record %s: out of memory", path);
     r->path = strdup(path);
     r->names = calloc((size_t)count, sizeof *r->names);
     r->count = count;
@@ -48,14 +37,14 @@ int srv_recorder_create(const char *path, int count, const char *const *names, d
         ok = (r->names[i] = strdup(names[i])) != NULL;
     if (!ok) {
         srv_recorder_destroy(r);
-        return rec_err(err, -ENOMEM, "record %s: out of memory", path);
+        return srv_err(err, -ENOMEM, "record %s: out of memory", path);
     }
     /* fail early when the file cannot be created */
     FILE *f = fopen(path, "wb");
     if (!f) {
         int e = errno;
         srv_recorder_destroy(r);
-        return rec_err(err, -e, "record %s: %s", path, strerror(e));
+        return srv_err(err, -e, "record %s: %s", path, strerror(e));
     }
     fclose(f);
     *out = r;
@@ -100,11 +89,11 @@ int srv_recorder_write(srv_recorder *r, char *err)
 {
     char e[MDL_ERR_LEN];
     if (r->frames == 0)
-        return rec_err(err, -ENODATA, "record %s: no frames were received", r->path);
+        return srv_err(err, -ENODATA, "record %s: no frames were received", r->path);
     mdl_markers *m = NULL;
     int rc = mdl_markers_create(r->frames, r->count, r->fps, &m, e);
     if (rc)
-        return rec_err(err, rc, "record %s: %s", r->path, e);
+        return srv_err(err, rc, "record %s: %s", r->path, e);
     size_t c = (size_t)r->count;
     memcpy(m->P, r->P, (size_t)r->frames * c * 3 * sizeof(float));
     memcpy(m->valid, r->valid, (size_t)r->frames * c);
@@ -112,7 +101,7 @@ int srv_recorder_write(srv_recorder *r, char *err)
         char *n = strdup(r->names[i]);
         if (!n) {
             mdl_markers_destroy(m);
-            return rec_err(err, -ENOMEM, "record %s: out of memory", r->path);
+            return srv_err(err, -ENOMEM, "record %s: out of memory", r->path);
         }
         free(m->names[i]);
         m->names[i] = n;
@@ -120,9 +109,9 @@ int srv_recorder_write(srv_recorder *r, char *err)
     rc = mdl_markers_write_c3d(r->path, m, e);
     mdl_markers_destroy(m);
     if (rc)
-        return rec_err(err, rc, "record: %s", e);
+        return srv_err(err, rc, "record: %s", e);
     if (r->truncated)
-        return rec_err(err, -ENOMEM, "record %s: memory ran out; only the first %d frames written",
+        return srv_err(err, -ENOMEM, "record %s: memory ran out; only the first %d frames written",
                        r->path, r->frames);
     return 0;
 }

@@ -1,6 +1,7 @@
 /* fakenect.c - fakenect dump directories (format in fakenect.h): writer, parsers, and the
  * `fakenect:DIR[?loop=1]` source. Every file read is checked (header fields, sizes, names); a
  * malformed index line or PGM is reported with the file, the line or byte offset and the reason. */
+#include "../drv_err.h"
 #include "fakenect.h"
 
 #include "model.h"
@@ -17,19 +18,6 @@
 #define FN_H 480
 #define FN_PIX (FN_W * FN_H)
 
-static int fail(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-#include <stdarg.h>
-static int fail(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, DRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 /* ------------------------------------------------------------------ writer */
 
 struct drv_fakenect_writer {
@@ -42,25 +30,25 @@ int drv_fakenect_writer_open(const char *dir, drv_fakenect_writer **out, char *e
 {
     *out = NULL;
     if (strlen(dir) > 4000)
-        return fail(err, -ENAMETOOLONG, "fakenect %s: path too long", dir);
+        return drv__err(err, -ENAMETOOLONG, "fakenect %s: path too long", dir);
     if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-        return fail(err, -errno, "fakenect %s: mkdir: %s", dir, strerror(errno));
+        return drv__err(err, -errno, "fakenect %s: mkdir: %s", dir, strerror(errno));
     char path[4200];
     snprintf(path, sizeof path, "%s/INDEX.txt", dir);
     struct stat st;
     if (stat(path, &st) == 0)
-        return fail(err, -EEXIST, "fakenect %s: INDEX.txt exists; use an empty directory", dir);
+        return drv__err(err, -EEXIST, "fakenect %s: INDEX.txt exists; use an empty directory", dir);
     drv_fakenect_writer *w = calloc(1, sizeof *w);
     if (!w || !(w->buf = malloc(FN_PIX * 2))) {
         free(w);
-        return fail(err, -ENOMEM, "fakenect %s: out of memory", dir);
+        return drv__err(err, -ENOMEM, "fakenect %s: out of memory", dir);
     }
     snprintf(w->dir, sizeof w->dir, "%s", dir);
     if (!(w->index = fopen(path, "w"))) {
         int e = errno;
         free(w->buf);
         free(w);
-        return fail(err, -e, "fakenect %s: %s", path, strerror(e));
+        return drv__err(err, -e, "fakenect %s: %s", path, strerror(e));
     }
     *out = w;
     return 0;
@@ -84,12 +72,12 @@ int drv_fakenect_writer_depth(drv_fakenect_writer *w, double t, uint32_t timesta
     }
     FILE *f = fopen(path, "wb");
     if (!f)
-        return fail(err, -errno, "fakenect %s: %s", path, strerror(errno));
+        return drv__err(err, -errno, "fakenect %s: %s", path, strerror(errno));
     int ok = fprintf(f, "P5 %d %d 65535\n", FN_W, FN_H) > 0 &&
              fwrite(w->buf, 1, FN_PIX * 2, f) == FN_PIX * 2;
     ok = (fclose(f) == 0) && ok;
     if (!ok || fprintf(w->index, "%s\n", name) < 0)
-        return fail(err, -EIO, "fakenect %s: write failed", path);
+        return drv__err(err, -EIO, "fakenect %s: write failed", path);
     return 0;
 }
 
@@ -99,7 +87,7 @@ int drv_fakenect_writer_close(drv_fakenect_writer *w, char *err)
         return 0;
     int r = 0;
     if (fclose(w->index) != 0)
-        r = fail(err, -EIO, "fakenect %s: writing INDEX.txt failed", w->dir);
+        r = drv__err(err, -EIO, "fakenect %s: writing INDEX.txt failed", w->dir);
     free(w->buf);
     free(w);
     return r;
@@ -114,26 +102,26 @@ int drv_fakenect_parse_index_line(const char *line, size_t len, double *t, uint3
     while (len && (line[len - 1] == '\n' || line[len - 1] == '\r'))
         len--;
     if (len < 3 || len >= sizeof tmp)
-        return fail(err, MDL_EFORMAT, "bad entry (length %zu)", len);
+        return drv__err(err, MDL_EFORMAT, "bad entry (length %zu)", len);
     memcpy(tmp, line, len);
     tmp[len] = '\0';
     if (tmp[1] != '-' || (tmp[0] != 'd' && tmp[0] != 'r' && tmp[0] != 'a'))
-        return fail(err, MDL_EFORMAT, "bad entry '%s': expected d-, r- or a-", tmp);
+        return drv__err(err, MDL_EFORMAT, "bad entry '%s': expected d-, r- or a-", tmp);
     char *end;
     errno = 0;
     double tv = strtod(tmp + 2, &end);
     if (end == tmp + 2 || *end != '-' || errno || !isfinite(tv) || tv < 0)
-        return fail(err, MDL_EFORMAT, "bad entry '%s': expected a time after '%c-'", tmp, tmp[0]);
+        return drv__err(err, MDL_EFORMAT, "bad entry '%s': expected a time after '%c-'", tmp, tmp[0]);
     const char *q = end + 1;
     if (*q < '0' || *q > '9')
-        return fail(err, MDL_EFORMAT, "bad entry '%s': expected a timestamp", tmp);
+        return drv__err(err, MDL_EFORMAT, "bad entry '%s': expected a timestamp", tmp);
     errno = 0;
     unsigned long long ts = strtoull(q, &end, 10);
     if (errno || ts > UINT32_MAX || *end != '.')
-        return fail(err, MDL_EFORMAT, "bad entry '%s': bad timestamp", tmp);
+        return drv__err(err, MDL_EFORMAT, "bad entry '%s': bad timestamp", tmp);
     const char *ext = tmp[0] == 'd' ? "pgm" : tmp[0] == 'r' ? "ppm" : "dump";
     if (strcmp(end + 1, ext))
-        return fail(err, MDL_EFORMAT, "bad entry '%s': expected extension .%s", tmp, ext);
+        return drv__err(err, MDL_EFORMAT, "bad entry '%s': expected extension .%s", tmp, ext);
     if (tmp[0] != 'd')
         return 0;
     *t = tv;
@@ -160,21 +148,21 @@ int drv_fakenect_parse_depth(const uint8_t *buf, size_t len, const char *name, u
                              char *err)
 {
     if (len < 2 || buf[0] != 'P' || buf[1] != '5')
-        return fail(err, MDL_EFORMAT, "%s: offset 0: not a binary PGM (P5)", name);
+        return drv__err(err, MDL_EFORMAT, "%s: offset 0: not a binary PGM (P5)", name);
     long w, h, maxval;
     size_t i = 2;
     if (!(i = field(buf, len, i, &w)) || !(i = field(buf, len, i, &h)) ||
         !(i = field(buf, len, i, &maxval)))
-        return fail(err, MDL_EFORMAT, "%s: bad PGM header (width, height, maxval)", name);
+        return drv__err(err, MDL_EFORMAT, "%s: bad PGM header (width, height, maxval)", name);
     if (w != FN_W || h != FN_H)
-        return fail(err, MDL_EFORMAT, "%s: %ldx%ld depth, expected %dx%d", name, w, h, FN_W, FN_H);
+        return drv__err(err, MDL_EFORMAT, "%s: %ldx%ld depth, expected %dx%d", name, w, h, FN_W, FN_H);
     if (maxval < 2047 || maxval > 65535)
-        return fail(err, MDL_EFORMAT, "%s: maxval %ld, expected 16-bit samples", name, maxval);
+        return drv__err(err, MDL_EFORMAT, "%s: maxval %ld, expected 16-bit samples", name, maxval);
     if (i >= len || (buf[i] != '\n' && buf[i] != ' ' && buf[i] != '\r' && buf[i] != '\t'))
-        return fail(err, MDL_EFORMAT, "%s: offset %zu: expected one whitespace after maxval", name, i);
+        return drv__err(err, MDL_EFORMAT, "%s: offset %zu: expected one whitespace after maxval", name, i);
     i++;
     if (len - i != (size_t)FN_PIX * 2)
-        return fail(err, MDL_EFORMAT, "%s: offset %zu: %zu bytes of samples, expected %d", name, i,
+        return drv__err(err, MDL_EFORMAT, "%s: offset %zu: %zu bytes of samples, expected %d", name, i,
                     len - i, FN_PIX * 2);
     for (int k = 0; k < FN_PIX; k++) {
         unsigned d = buf[i + 2 * k] | (unsigned)buf[i + 2 * k + 1] << 8;
@@ -225,19 +213,19 @@ static int fn_open(drv_source *s, const char *arg, char *err)
 {
     fn_src *f = calloc(1, sizeof *f);
     if (!f)
-        return fail(err, -ENOMEM, "fakenect: out of memory");
+        return drv__err(err, -ENOMEM, "fakenect: out of memory");
     const char *q = strchr(arg, '?');
     size_t dl = q ? (size_t)(q - arg) : strlen(arg);
     if (dl == 0 || dl >= sizeof f->dir) {
         fn_free(f);
-        return fail(err, -EINVAL, "fakenect: expected fakenect:DIR[?loop=1]");
+        return drv__err(err, -EINVAL, "fakenect: expected fakenect:DIR[?loop=1]");
     }
     memcpy(f->dir, arg, dl);
     if (q) {
         if (!strcmp(q + 1, "loop=1"))
             f->loop = 1;
         else if (strcmp(q + 1, "loop=0")) {
-            int r = fail(err, -EINVAL, "fakenect %s: unknown option '%s' (loop=0|1)", f->dir, q + 1);
+            int r = drv__err(err, -EINVAL, "fakenect %s: unknown option '%s' (loop=0|1)", f->dir, q + 1);
             fn_free(f);
             return r;
         }
@@ -248,7 +236,7 @@ static int fn_open(drv_source *s, const char *arg, char *err)
     if (!in) {
         int e = errno;
         fn_free(f);
-        return fail(err, e == ENOENT ? -ENOENT : -e, "fakenect %s: %s", path, strerror(e));
+        return drv__err(err, e == ENOENT ? -ENOENT : -e, "fakenect %s: %s", path, strerror(e));
     }
     char line[512], lerr[DRV_ERR_LEN];
     int cap = 0, lineno = 0, r = 0;
@@ -256,7 +244,7 @@ static int fn_open(drv_source *s, const char *arg, char *err)
         lineno++;
         size_t len = strlen(line);
         if (len == sizeof line - 1 && line[len - 1] != '\n') {
-            r = fail(err, MDL_EFORMAT, "%s:%d: line too long", path, lineno);
+            r = drv__err(err, MDL_EFORMAT, "%s:%d: line too long", path, lineno);
             break;
         }
         if (len == 0 || line[0] == '\n' || line[0] == '\r')
@@ -265,7 +253,7 @@ static int fn_open(drv_source *s, const char *arg, char *err)
         uint32_t ts;
         int k = drv_fakenect_parse_index_line(line, len, &t, &ts, lerr);
         if (k < 0) {
-            r = fail(err, k, "%s:%d: %s", path, lineno, lerr);
+            r = drv__err(err, k, "%s:%d: %s", path, lineno, lerr);
             break;
         }
         if (k == 0)
@@ -279,17 +267,17 @@ static int fn_open(drv_source *s, const char *arg, char *err)
             if (nf)
                 f->file = nf;
             if (!nt || !nf) {
-                r = fail(err, -ENOMEM, "fakenect %s: out of memory", path);
+                r = drv__err(err, -ENOMEM, "fakenect %s: out of memory", path);
                 break;
             }
         }
         if (f->n > 0 && t < f->t[f->n - 1]) {
-            r = fail(err, MDL_EFORMAT, "%s:%d: time goes backwards", path, lineno);
+            r = drv__err(err, MDL_EFORMAT, "%s:%d: time goes backwards", path, lineno);
             break;
         }
         size_t nl = strcspn(line, "\r\n");
         if (nl >= NAME_LEN) {
-            r = fail(err, MDL_EFORMAT, "%s:%d: file name too long", path, lineno);
+            r = drv__err(err, MDL_EFORMAT, "%s:%d: file name too long", path, lineno);
             break;
         }
         memcpy(f->file[f->n], line, nl);
@@ -298,7 +286,7 @@ static int fn_open(drv_source *s, const char *arg, char *err)
     }
     fclose(in);
     if (!r && f->n == 0)
-        r = fail(err, MDL_EFORMAT, "%s: no depth frames", path);
+        r = drv__err(err, MDL_EFORMAT, "%s: no depth frames", path);
     if (r) {
         fn_free(f);
         return r;
@@ -309,7 +297,7 @@ static int fn_open(drv_source *s, const char *arg, char *err)
     drv_depth_opts o;
     drv_depth_opts_default(&o);
     if (!f->buf || !f->mm) {
-        r = fail(err, -ENOMEM, "fakenect %s: out of memory", f->dir);
+        r = drv__err(err, -ENOMEM, "fakenect %s: out of memory", f->dir);
         fn_free(f);
         return r;
     }
@@ -361,11 +349,11 @@ static int fn_read(drv_source *s, drv_frame *fr, int timeout_ms, char *err)
     snprintf(path, sizeof path, "%s/%s", f->dir, f->file[f->next]);
     FILE *in = fopen(path, "rb");
     if (!in)
-        return fail(err, -errno, "fakenect %s: %s", path, strerror(errno));
+        return drv__err(err, -errno, "fakenect %s: %s", path, strerror(errno));
     size_t len = fread(f->buf, 1, f->cap + 1, in);
     fclose(in);
     if (len > f->cap)
-        return fail(err, MDL_EFORMAT, "fakenect %s: larger than a 640x480 depth frame", path);
+        return drv__err(err, MDL_EFORMAT, "fakenect %s: larger than a 640x480 depth frame", path);
     int r = drv_fakenect_parse_depth(f->buf, len, path, f->mm, err);
     if (r)
         return r;

@@ -1,6 +1,7 @@
 /* kinect_usb.c - depth sensors on USB (libusb 1.0): the device table, the arrival/departure
  * watcher (hotplug callbacks where libusb supports them, else enumeration diffs), and the Kinect
  * v1 motor's vendor control requests. Encodings as documented in kinect_usb.h. */
+#include "../drv_err.h"
 #include "kinect_usb.h"
 
 #include <errno.h>
@@ -11,18 +12,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static int fail(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int fail(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, DRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
 
 static const struct {
     uint16_t vid, pid;
@@ -54,7 +43,7 @@ int drv_kinect_led_parse(const char *name, int *led, char *err)
             *led = t[i].v;
             return 0;
         }
-    return fail(err, -EINVAL,
+    return drv__err(err, -EINVAL,
                 "kinect: LED '%s': expected off, green, red, yellow, blink-green or blink-red-yellow",
                 name ? name : "");
 }
@@ -62,7 +51,7 @@ int drv_kinect_led_parse(const char *name, int *led, char *err)
 int drv_kinect_led_request(int led, drv_usb_request *rq, char *err)
 {
     if (led < 0 || led > 6 || led == 5)
-        return fail(err, -EINVAL, "kinect: LED mode %d unknown", led);
+        return drv__err(err, -EINVAL, "kinect: LED mode %d unknown", led);
     *rq = (drv_usb_request){0x40, 0x06, (uint16_t)led, 0, 0};
     return 0;
 }
@@ -70,7 +59,7 @@ int drv_kinect_led_request(int led, drv_usb_request *rq, char *err)
 int drv_kinect_tilt_request(double degrees, drv_usb_request *rq, char *err)
 {
     if (!(degrees >= -31.0 && degrees <= 31.0))
-        return fail(err, -EINVAL, "kinect: tilt %g degrees: the motor moves within -31..31", degrees);
+        return drv__err(err, -EINVAL, "kinect: tilt %g degrees: the motor moves within -31..31", degrees);
     long half = lround(degrees * 2.0);
     *rq = (drv_usb_request){0x40, 0x31, (uint16_t)(int16_t)half, 0, 0};
     return 0;
@@ -84,7 +73,7 @@ void drv_kinect_state_request(drv_usb_request *rq)
 int drv_kinect_state_parse(const uint8_t *buf, size_t len, drv_kinect_state *st, char *err)
 {
     if (len < 10)
-        return fail(err, -EPROTO, "kinect: motor state has %zu bytes, expected 10", len);
+        return drv__err(err, -EPROTO, "kinect: motor state has %zu bytes, expected 10", len);
     for (int a = 0; a < 3; a++)
         st->accel[a] = (int16_t)(uint16_t)(buf[2 + 2 * a] << 8 | buf[3 + 2 * a]);
     st->tilt_deg = buf[8] == 0x80 ? NAN : (int8_t)buf[8] * 0.5;
@@ -136,7 +125,7 @@ static int scan(drv_usb_watch *w, char *err)
     libusb_device **list;
     ssize_t n = libusb_get_device_list(w->ctx, &list);
     if (n < 0)
-        return fail(err, -EIO, "usb: listing devices: %s", libusb_strerror((int)n));
+        return drv__err(err, -EIO, "usb: listing devices: %s", libusb_strerror((int)n));
     drv_usb_dev now[WATCH_MAX];
     int nnow = 0;
     for (ssize_t i = 0; i < n && nnow < WATCH_MAX; i++) {
@@ -172,13 +161,13 @@ int drv_usb_watch_create(drv_usb_event_fn fn, void *user, drv_usb_watch **out, c
     *out = NULL;
     drv_usb_watch *w = calloc(1, sizeof *w);
     if (!w)
-        return fail(err, -ENOMEM, "usb: out of memory");
+        return drv__err(err, -ENOMEM, "usb: out of memory");
     w->fn = fn;
     w->user = user;
     int r = libusb_init(&w->ctx);
     if (r != 0) {
         free(w);
-        return fail(err, -ENODEV, "usb: libusb_init: %s", libusb_strerror(r));
+        return drv__err(err, -ENODEV, "usb: libusb_init: %s", libusb_strerror(r));
     }
     if (libusb_has_capability(LIBUSB_CAP_HAS_HOTPLUG) &&
         libusb_hotplug_register_callback(
@@ -208,7 +197,7 @@ int drv_usb_watch_poll(drv_usb_watch *w, int timeout_ms, char *err)
         struct timeval tv = {timeout_ms / 1000, (timeout_ms % 1000) * 1000};
         int r = libusb_handle_events_timeout_completed(w->ctx, &tv, NULL);
         if (r != 0 && r != LIBUSB_ERROR_INTERRUPTED)
-            return fail(err, -EIO, "usb: handling events: %s", libusb_strerror(r));
+            return drv__err(err, -EIO, "usb: handling events: %s", libusb_strerror(r));
         return 0;
     }
     struct timespec ts = {timeout_ms / 1000, (long)(timeout_ms % 1000) * 1000000L};
@@ -238,11 +227,11 @@ int drv_kinect_motor_open(drv_kinect_motor **out, char *err)
     *out = NULL;
     drv_kinect_motor *m = calloc(1, sizeof *m);
     if (!m)
-        return fail(err, -ENOMEM, "kinect: out of memory");
+        return drv__err(err, -ENOMEM, "kinect: out of memory");
     int r = libusb_init(&m->ctx);
     if (r != 0) {
         free(m);
-        return fail(err, -ENODEV, "kinect: USB not available: %s", libusb_strerror(r));
+        return drv__err(err, -ENODEV, "kinect: USB not available: %s", libusb_strerror(r));
     }
     libusb_device **list;
     ssize_t n = libusb_get_device_list(m->ctx, &list);
@@ -260,8 +249,8 @@ int drv_kinect_motor_open(drv_kinect_motor **out, char *err)
         libusb_exit(m->ctx);
         free(m);
         if (r == LIBUSB_ERROR_NO_DEVICE)
-            return fail(err, -ENODEV, "kinect: no Kinect v1 motor (045e:02b0) attached");
-        return fail(err, r == LIBUSB_ERROR_ACCESS ? -EACCES : -EIO,
+            return drv__err(err, -ENODEV, "kinect: no Kinect v1 motor (045e:02b0) attached");
+        return drv__err(err, r == LIBUSB_ERROR_ACCESS ? -EACCES : -EIO,
                     "kinect: opening the motor (045e:02b0): %s%s", libusb_strerror(r),
                     r == LIBUSB_ERROR_ACCESS ? " (a udev rule must give you access)" : "");
     }
@@ -284,7 +273,7 @@ static int transfer(drv_kinect_motor *m, const drv_usb_request *rq, uint8_t *dat
     int r = libusb_control_transfer(m->h, rq->bm_request_type, rq->b_request, rq->w_value,
                                     rq->w_index, data, rq->w_length, 1000);
     if (r < 0)
-        return fail(err, r == LIBUSB_ERROR_NO_DEVICE ? DRV_ELOST : -EIO, "kinect: %s: %s", what,
+        return drv__err(err, r == LIBUSB_ERROR_NO_DEVICE ? DRV_ELOST : -EIO, "kinect: %s: %s", what,
                     libusb_strerror(r));
     return r;
 }

@@ -1,6 +1,7 @@
 /* openni2.c - the openni2: source: OpenNI2 C API device/stream handling, depth mode choice,
  * intrinsics from the field of view, device-to-monotonic time mapping, loss detection; depth is
  * turned into markers by drv_depth_tracker (markers.c). Behaviour as described in openni2.h. */
+#include "../drv_err.h"
 #include "openni2.h"
 
 #include "oni_c.h"
@@ -13,18 +14,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static int fail(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int fail(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, DRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
 
 static uint64_t now_us(void)
 {
@@ -135,24 +124,24 @@ static int parse_opts(oni_src *o, const char *q, char *err)
 {
     char buf[256];
     if (strlen(q) >= sizeof buf)
-        return fail(err, -EINVAL, "openni2: options too long");
+        return drv__err(err, -EINVAL, "openni2: options too long");
     strcpy(buf, q);
     char *save = NULL;
     for (char *kv = strtok_r(buf, "&", &save); kv; kv = strtok_r(NULL, "&", &save)) {
         char *eq = strchr(kv, '=');
         if (!eq)
-            return fail(err, -EINVAL, "openni2: option '%s': expected key=value", kv);
+            return drv__err(err, -EINVAL, "openni2: option '%s': expected key=value", kv);
         *eq = '\0';
         if (!strcmp(kv, "record")) { /* a path, not a number */
             if (!eq[1] || strlen(eq + 1) >= sizeof o->record)
-                return fail(err, -EINVAL, "openni2: option record: empty or too long a path");
+                return drv__err(err, -EINVAL, "openni2: option record: empty or too long a path");
             snprintf(o->record, sizeof o->record, "%s", eq + 1);
             continue;
         }
         char *end;
         long v = strtol(eq + 1, &end, 10);
         if (*end || end == eq + 1)
-            return fail(err, -EINVAL, "openni2: option %s: '%s' is not a number", kv, eq + 1);
+            return drv__err(err, -EINVAL, "openni2: option %s: '%s' is not a number", kv, eq + 1);
         if (!strcmp(kv, "width") && v >= 16 && v <= 4096)
             o->want_w = (int)v;
         else if (!strcmp(kv, "height") && v >= 16 && v <= 4096)
@@ -162,7 +151,7 @@ static int parse_opts(oni_src *o, const char *q, char *err)
         else if (!strcmp(kv, "loop") && (v == 0 || v == 1))
             o->loop = (int)v;
         else
-            return fail(err, -EINVAL,
+            return drv__err(err, -EINVAL,
                         "openni2: option %s=%ld unknown or out of range (width, height, fps, loop, "
                         "record)",
                         kv, v);
@@ -198,7 +187,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     char why[256];
     oni_src *o = calloc(1, sizeof *o);
     if (!o)
-        return fail(err, -ENOMEM, "openni2: out of memory");
+        return drv__err(err, -ENOMEM, "openni2: out of memory");
     o->want_w = 640;
     o->want_h = 480;
     o->want_fps = 30;
@@ -208,7 +197,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     int r;
     if (ul >= sizeof o->uri) {
         free(o);
-        return fail(err, -ENAMETOOLONG, "openni2: URI too long");
+        return drv__err(err, -ENAMETOOLONG, "openni2: URI too long");
     }
     memcpy(o->uri, arg, ul);
     o->uri[ul] = '\0';
@@ -219,7 +208,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     }
     atomic_init(&o->lost, 0);
     if (oniInitialize(ONI_API_VERSION) != ONI_STATUS_OK) {
-        r = fail(err, -EIO, "openni2: initialise: %s", oni_why(why));
+        r = drv__err(err, -EIO, "openni2: initialise: %s", oni_why(why));
         oni_free(o);
         return r;
     }
@@ -229,7 +218,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
         o->dev = NULL;
         char wb[256];
         const char *why = oni_why(wb);
-        r = fail(err, -ENODEV, "openni2 %s: cannot open: %s", name,
+        r = drv__err(err, -ENODEV, "openni2 %s: cannot open: %s", name,
                  *why ? why : "no such device (is it plugged in, and is its driver in "
                                      "OpenNI2's driver directory?)");
         oni_free(o);
@@ -244,13 +233,13 @@ static int oni_open(drv_source *s, const char *arg, char *err)
         o->cb_registered = 1;
     const OniSensorInfo *si = oniDeviceGetSensorInfo(o->dev, ONI_SENSOR_DEPTH);
     if (!si) {
-        r = fail(err, -ENOTSUP, "openni2 %s: the device has no depth sensor", name);
+        r = drv__err(err, -ENOTSUP, "openni2 %s: the device has no depth sensor", name);
         oni_free(o);
         return r;
     }
     if (oniDeviceCreateStream(o->dev, ONI_SENSOR_DEPTH, &o->stream) != ONI_STATUS_OK) {
         o->stream = NULL;
-        r = fail(err, -EIO, "openni2 %s: cannot create the depth stream: %s", name,
+        r = drv__err(err, -EIO, "openni2 %s: cannot create the depth stream: %s", name,
                  oni_why(why));
         oni_free(o);
         return r;
@@ -263,7 +252,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
         memcmp(&want, &cur, sizeof want) != 0) {
         if (oniStreamSetProperty(o->stream, ONI_STREAM_PROPERTY_VIDEO_MODE, &want, sizeof want) !=
             ONI_STATUS_OK) {
-            r = fail(err, -ENOTSUP, "openni2 %s: cannot set depth mode %dx%d@%d: %s", name,
+            r = drv__err(err, -ENOTSUP, "openni2 %s: cannot set depth mode %dx%d@%d: %s", name,
                      want.resolutionX, want.resolutionY, want.fps, oni_why(why));
             oni_free(o);
             return r;
@@ -276,7 +265,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
         o->mode = cur;
     if (!is_depth_format(o->mode.pixelFormat) || o->mode.resolutionX < 16 ||
         o->mode.resolutionY < 16 || o->mode.resolutionX > 4096 || o->mode.resolutionY > 4096) {
-        r = fail(err, -ENOTSUP, "openni2 %s: depth mode %dx%d with pixel format %d is not usable "
+        r = drv__err(err, -ENOTSUP, "openni2 %s: depth mode %dx%d with pixel format %d is not usable "
                  "(want 1 mm or 100 um depth)", name, o->mode.resolutionX, o->mode.resolutionY,
                  (int)o->mode.pixelFormat);
         oni_free(o);
@@ -309,7 +298,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     d.step = w >= 640 ? 4 : w >= 320 ? 2 : 1;
     if (!(o->mm = malloc((size_t)w * h * sizeof *o->mm))) {
         oni_free(o);
-        return fail(err, -ENOMEM, "openni2 %s: out of memory", name);
+        return drv__err(err, -ENOMEM, "openni2 %s: out of memory", name);
     }
     if ((r = drv_depth_tracker_create(&d, &o->trk, err))) {
         oni_free(o);
@@ -329,13 +318,13 @@ static int oni_start(drv_source *s, char *err)
     drv_depth_tracker_reset(o->trk);
     memset(&o->clock, 0, sizeof o->clock);
     if (oniStreamStart(o->stream) != ONI_STATUS_OK)
-        return fail(err, atomic_load(&o->lost) ? DRV_ELOST : -EIO,
+        return drv__err(err, atomic_load(&o->lost) ? DRV_ELOST : -EIO,
                     "openni2 %s: cannot start the depth stream: %s", o->uri, oni_why(why));
     if (o->record[0] && !o->rec) { /* lossless: the recording must replay to the same markers */
         if (oniCreateRecorder(o->record, &o->rec) != ONI_STATUS_OK ||
             oniRecorderAttachStream(o->rec, o->stream, 0) != ONI_STATUS_OK ||
             oniRecorderStart(o->rec) != ONI_STATUS_OK) {
-            int r = fail(err, -EIO, "openni2 %s: cannot record to %s: %s", o->uri, o->record,
+            int r = drv__err(err, -EIO, "openni2 %s: cannot record to %s: %s", o->uri, o->record,
                          oni_why(why));
             if (o->rec)
                 oniRecorderDestroy(&o->rec);
@@ -351,27 +340,27 @@ static int oni_read(drv_source *s, drv_frame *fr, int timeout_ms, char *err)
     char why[256];
     oni_src *o = s->impl;
     if (atomic_load(&o->lost))
-        return fail(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
+        return drv__err(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
     int idx = -1;
     OniStatus st = oniWaitForAnyStream(&o->stream, 1, &idx,
                                        timeout_ms < 0 ? -1 /* ONI_TIMEOUT_FOREVER */ : timeout_ms);
     if (atomic_load(&o->lost))
-        return fail(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
+        return drv__err(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
     if (st == ONI_STATUS_TIME_OUT)
         return DRV_ETIMEOUT;
     if (st != ONI_STATUS_OK)
-        return fail(err, DRV_ELOST, "openni2 %s: waiting for depth: %s", o->uri,
+        return drv__err(err, DRV_ELOST, "openni2 %s: waiting for depth: %s", o->uri,
                     oni_why(why));
     OniFrame *f = NULL;
     if (oniStreamReadFrame(o->stream, &f) != ONI_STATUS_OK || !f)
-        return fail(err, DRV_ELOST, "openni2 %s: reading depth: %s", o->uri, oni_why(why));
+        return drv__err(err, DRV_ELOST, "openni2 %s: reading depth: %s", o->uri, oni_why(why));
     uint64_t host = now_us();
     int w = o->k.width, h = o->k.height;
     int r = 0;
     if (f->sensorType != ONI_SENSOR_DEPTH || f->width != w || f->height != h || !f->data ||
         f->stride < 2 * w || (size_t)f->dataSize < (size_t)f->stride * (size_t)(h - 1) + 2u * w ||
         !is_depth_format(f->videoMode.pixelFormat)) {
-        r = fail(err, -EPROTO, "openni2 %s: frame %d is %dx%d (stride %d, %d bytes), expected "
+        r = drv__err(err, -EPROTO, "openni2 %s: frame %d is %dx%d (stride %d, %d bytes), expected "
                  "%dx%d depth", o->uri, f->frameIndex, f->width, f->height, f->stride, f->dataSize,
                  w, h);
         oniFrameRelease(f);

@@ -2,6 +2,7 @@
  * Formats, unpacking, streaming and loss as described in v4l2.h. Implements the V4L2 capture
  * protocol of the kernel's "Video for Linux API" (Streaming I/O, memory mapping; VIDIOC_ENUM_FMT,
  * VIDIOC_S_FMT, VIDIOC_REQBUFS, VIDIOC_QUERYBUF, VIDIOC_QBUF, VIDIOC_DQBUF, VIDIOC_STREAMON/OFF). */
+#include "../drv_err.h"
 #include "v4l2.h"
 
 #include <errno.h>
@@ -18,18 +19,6 @@
 #include <unistd.h>
 
 #define V4_MAX_BUFS 8
-
-static int fail(char *err, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int fail(char *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, DRV_ERR_LEN, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
 
 static uint64_t now_us(void)
 {
@@ -122,13 +111,13 @@ int drv_v4l2_opts_parse(const char *query, drv_v4l2_opts *o, char *err)
     if (!query || !*query)
         return 0;
     if (strlen(query) >= sizeof buf)
-        return fail(err, -EINVAL, "v4l2: options too long");
+        return drv__err(err, -EINVAL, "v4l2: options too long");
     strcpy(buf, query);
     char *save = NULL;
     for (char *kv = strtok_r(buf, "&", &save); kv; kv = strtok_r(NULL, "&", &save)) {
         char *eq = strchr(kv, '=');
         if (!eq)
-            return fail(err, -EINVAL, "v4l2: option '%s': expected key=value", kv);
+            return drv__err(err, -EINVAL, "v4l2: option '%s': expected key=value", kv);
         *eq = '\0';
         const char *v = eq + 1;
         if (!strcmp(kv, "format")) {
@@ -139,30 +128,30 @@ int drv_v4l2_opts_parse(const char *query, drv_v4l2_opts *o, char *err)
             else if (!strcmp(v, "z16"))
                 o->formats = DRV_V4L2_Z16;
             else
-                return fail(err, -EINVAL, "v4l2: format '%s': expected y10b, y16 or z16", v);
+                return drv__err(err, -EINVAL, "v4l2: format '%s': expected y10b, y16 or z16", v);
         } else if (!strcmp(kv, "y16")) {
             if (!strcmp(v, "mm"))
                 o->y16_mm = 1;
             else if (!strcmp(v, "disparity"))
                 o->y16_mm = 0;
             else
-                return fail(err, -EINVAL, "v4l2: y16 '%s': expected disparity or mm", v);
+                return drv__err(err, -EINVAL, "v4l2: y16 '%s': expected disparity or mm", v);
         } else if (!strcmp(kv, "buffers")) {
             char *end;
             long n = strtol(v, &end, 10);
             if (*end || end == v || n < 2 || n > V4_MAX_BUFS)
-                return fail(err, -EINVAL, "v4l2: buffers '%s': expected 2..%d", v, V4_MAX_BUFS);
+                return drv__err(err, -EINVAL, "v4l2: buffers '%s': expected 2..%d", v, V4_MAX_BUFS);
             o->buffers = (int)n;
         } else if (!strcmp(kv, "fx") || !strcmp(kv, "fy") || !strcmp(kv, "cx") ||
                    !strcmp(kv, "cy")) {
             char *end;
             double x = strtod(v, &end);
             if (*end || end == v || !isfinite(x) || x <= 0 || x > 1e5)
-                return fail(err, -EINVAL, "v4l2: %s '%s': expected a positive number of pixels", kv,
+                return drv__err(err, -EINVAL, "v4l2: %s '%s': expected a positive number of pixels", kv,
                             v);
             *(kv[0] == 'f' ? (kv[1] == 'x' ? &o->fx : &o->fy) : (kv[1] == 'x' ? &o->cx : &o->cy)) = x;
         } else {
-            return fail(err, -EINVAL,
+            return drv__err(err, -EINVAL,
                         "v4l2: unknown option '%s' (format, y16, buffers, fx, fy, cx, cy)", kv);
         }
     }
@@ -216,7 +205,7 @@ static int negotiate(drv_v4l2_cam *c, char *err)
         if (xioctl(c, VIDIOC_ENUM_FMT, &d) != 0) {
             if (errno == EINVAL)
                 break;
-            return fail(err, errno == ENODEV ? DRV_ELOST : -errno, "v4l2 %s: VIDIOC_ENUM_FMT: %s",
+            return drv__err(err, errno == ENODEV ? DRV_ELOST : -errno, "v4l2 %s: VIDIOC_ENUM_FMT: %s",
                         c->path, strerror(errno));
         }
         char s[5];
@@ -233,7 +222,7 @@ static int negotiate(drv_v4l2_cam *c, char *err)
     int allowed = c->o.formats ? c->o.formats : (DRV_V4L2_Y10B | DRV_V4L2_Y16 | DRV_V4L2_Z16);
     int usable = offered & allowed;
     if (!usable)
-        return fail(err, -ENOTSUP,
+        return drv__err(err, -ENOTSUP,
                     "v4l2 %s: no depth format%s (offers: %s; wanted Y10B, Y16 or Z16; for a Kinect "
                     "load gspca_kinect with depth_mode=1)",
                     c->path, c->o.formats ? " of the chosen kind" : "", ll ? list : "none");
@@ -251,17 +240,17 @@ static int negotiate(drv_v4l2_cam *c, char *err)
         f.fmt.pix.pixelformat = pref[p].pix;
         f.fmt.pix.field = V4L2_FIELD_NONE;
         if (xioctl(c, VIDIOC_S_FMT, &f) != 0)
-            return fail(err, errno == ENODEV ? DRV_ELOST : -errno, "v4l2 %s: VIDIOC_S_FMT: %s",
+            return drv__err(err, errno == ENODEV ? DRV_ELOST : -errno, "v4l2 %s: VIDIOC_S_FMT: %s",
                         c->path, strerror(errno));
         if (f.fmt.pix.pixelformat != pref[p].pix)
             continue; /* the driver substituted another format: try the next one */
         unsigned w = f.fmt.pix.width, h = f.fmt.pix.height;
         if (w < 16 || h < 16 || w > 4096 || h > 4096)
-            return fail(err, -EPROTO, "v4l2 %s: driver chose %ux%u", c->path, w, h);
+            return drv__err(err, -EPROTO, "v4l2 %s: driver chose %ux%u", c->path, w, h);
         unsigned min_bpl = pref[p].f == DRV_V4L2_Y10B ? (w * 10 + 7) / 8 : w * 2;
         unsigned bpl = f.fmt.pix.bytesperline ? f.fmt.pix.bytesperline : min_bpl;
         if (bpl < min_bpl || bpl > 4 * min_bpl)
-            return fail(err, -EPROTO, "v4l2 %s: bytesperline %u for width %u", c->path, bpl, w);
+            return drv__err(err, -EPROTO, "v4l2 %s: bytesperline %u for width %u", c->path, bpl, w);
         c->format = pref[p].f;
         c->width = (int)w;
         c->height = (int)h;
@@ -269,7 +258,7 @@ static int negotiate(drv_v4l2_cam *c, char *err)
         c->sizeimage = bpl * h;
         return 0;
     }
-    return fail(err, -ENOTSUP, "v4l2 %s: the driver refused every depth format (offers: %s)",
+    return drv__err(err, -ENOTSUP, "v4l2 %s: the driver refused every depth format (offers: %s)",
                 c->path, list);
 }
 
@@ -294,10 +283,10 @@ int drv_v4l2_cam_open(const char *path, const drv_v4l2_opts *o, const drv_v4l2_s
 {
     *out = NULL;
     if (!path || !*path || strlen(path) >= 256)
-        return fail(err, -EINVAL, "v4l2: bad device path");
+        return drv__err(err, -EINVAL, "v4l2: bad device path");
     drv_v4l2_cam *c = calloc(1, sizeof *c);
     if (!c)
-        return fail(err, -ENOMEM, "v4l2 %s: out of memory", path);
+        return drv__err(err, -ENOMEM, "v4l2 %s: out of memory", path);
     c->sys = *sys;
     c->o = *o;
     if (c->o.buffers < 2 || c->o.buffers > V4_MAX_BUFS)
@@ -307,27 +296,27 @@ int drv_v4l2_cam_open(const char *path, const drv_v4l2_opts *o, const drv_v4l2_s
     if (c->fd < 0) {
         int e = errno;
         free(c);
-        return fail(err, e == ENOENT || e == ENODEV || e == ENXIO ? -ENODEV : -e,
+        return drv__err(err, e == ENOENT || e == ENODEV || e == ENXIO ? -ENODEV : -e,
                     "v4l2 %s: open: %s", path, strerror(e));
     }
     int r;
     struct v4l2_capability cap;
     memset(&cap, 0, sizeof cap);
     if (xioctl(c, VIDIOC_QUERYCAP, &cap) != 0) {
-        r = fail(err, errno == ENOTTY ? -ENOTTY : -errno, "v4l2 %s: VIDIOC_QUERYCAP: %s%s", path,
+        r = drv__err(err, errno == ENOTTY ? -ENOTTY : -errno, "v4l2 %s: VIDIOC_QUERYCAP: %s%s", path,
                  strerror(errno), errno == ENOTTY ? " (not a V4L2 device)" : "");
         goto bad;
     }
     uint32_t caps = cap.capabilities & V4L2_CAP_DEVICE_CAPS ? cap.device_caps : cap.capabilities;
     if (!(caps & V4L2_CAP_VIDEO_CAPTURE) || !(caps & V4L2_CAP_STREAMING)) {
-        r = fail(err, -ENOTSUP, "v4l2 %s (%.32s): not a streaming capture device", path,
+        r = drv__err(err, -ENOTSUP, "v4l2 %s (%.32s): not a streaming capture device", path,
                  (const char *)cap.card);
         goto bad;
     }
     if ((r = negotiate(c, err)))
         goto bad;
     if (c->format == DRV_V4L2_Y10B && !(c->row = malloc((size_t)c->width * sizeof *c->row))) {
-        r = fail(err, -ENOMEM, "v4l2 %s: out of memory", path);
+        r = drv__err(err, -ENOMEM, "v4l2 %s: out of memory", path);
         goto bad;
     }
     build_lut(c);
@@ -384,8 +373,8 @@ static int lost_or(drv_v4l2_cam *c, const char *what, char *err)
 {
     int e = errno;
     if (e == ENODEV || e == ENXIO || e == EIO)
-        return fail(err, DRV_ELOST, "v4l2 %s: %s: %s (device lost)", c->path, what, strerror(e));
-    return fail(err, -e, "v4l2 %s: %s: %s", c->path, what, strerror(e));
+        return drv__err(err, DRV_ELOST, "v4l2 %s: %s: %s (device lost)", c->path, what, strerror(e));
+    return drv__err(err, -e, "v4l2 %s: %s: %s", c->path, what, strerror(e));
 }
 
 int drv_v4l2_cam_start(drv_v4l2_cam *c, char *err)
@@ -400,7 +389,7 @@ int drv_v4l2_cam_start(drv_v4l2_cam *c, char *err)
     if (xioctl(c, VIDIOC_REQBUFS, &rb) != 0)
         return lost_or(c, "VIDIOC_REQBUFS", err);
     if (rb.count < 2)
-        return fail(err, -ENOMEM, "v4l2 %s: only %u buffers granted", c->path, rb.count);
+        return drv__err(err, -ENOMEM, "v4l2 %s: only %u buffers granted", c->path, rb.count);
     int n = rb.count > V4_MAX_BUFS ? V4_MAX_BUFS : (int)rb.count;
     int r = 0;
     c->nbufs = 0;
@@ -415,7 +404,7 @@ int drv_v4l2_cam_start(drv_v4l2_cam *c, char *err)
             goto bad;
         }
         if (b.length < c->sizeimage) {
-            r = fail(err, -EPROTO, "v4l2 %s: buffer %d holds %u bytes, a frame needs %u", c->path,
+            r = drv__err(err, -EPROTO, "v4l2 %s: buffer %d holds %u bytes, a frame needs %u", c->path,
                      i, b.length, c->sizeimage);
             goto bad;
         }
@@ -470,7 +459,7 @@ static void convert(drv_v4l2_cam *c, const uint8_t *src, uint16_t *mm)
 int drv_v4l2_cam_read(drv_v4l2_cam *c, uint16_t *mm, uint64_t *t_us, int timeout_ms, char *err)
 {
     if (!c->streaming)
-        return fail(err, -EINVAL, "v4l2 %s: not streaming", c->path);
+        return drv__err(err, -EINVAL, "v4l2 %s: not streaming", c->path);
     for (;;) {
         struct pollfd p = {.fd = c->fd, .events = POLLIN};
         int n = c->sys.poll(c->sys.ctx, &p, 1, timeout_ms);
@@ -482,7 +471,7 @@ int drv_v4l2_cam_read(drv_v4l2_cam *c, uint16_t *mm, uint64_t *t_us, int timeout
         if (n == 0)
             return DRV_ETIMEOUT;
         if (p.revents & POLLNVAL)
-            return fail(err, -EBADF, "v4l2 %s: poll: descriptor not open", c->path);
+            return drv__err(err, -EBADF, "v4l2 %s: poll: descriptor not open", c->path);
         /* POLLERR: DQBUF says why (ENODEV after an unplug) */
         struct v4l2_buffer b;
         memset(&b, 0, sizeof b);
@@ -491,14 +480,14 @@ int drv_v4l2_cam_read(drv_v4l2_cam *c, uint16_t *mm, uint64_t *t_us, int timeout
         if (xioctl(c, VIDIOC_DQBUF, &b) != 0) {
             if (errno == EAGAIN) {
                 if (p.revents & POLLERR)
-                    return fail(err, DRV_ELOST, "v4l2 %s: poll reports an error (device lost)",
+                    return drv__err(err, DRV_ELOST, "v4l2 %s: poll reports an error (device lost)",
                                 c->path);
                 continue;
             }
             return lost_or(c, "VIDIOC_DQBUF", err);
         }
         if (b.index >= (uint32_t)c->nbufs)
-            return fail(err, -EPROTO, "v4l2 %s: driver returned buffer %u of %d", c->path,
+            return drv__err(err, -EPROTO, "v4l2 %s: driver returned buffer %u of %d", c->path,
                         b.index, c->nbufs);
         uint64_t t = now_us();
         int ok = !(b.flags & V4L2_BUF_FLAG_ERROR) && b.bytesused >= c->sizeimage;
@@ -552,7 +541,7 @@ int drv_v4l2_source_open_sys(drv_source *s, const char *arg, const drv_v4l2_sys 
     const char *q = strchr(arg, '?');
     size_t pl = q ? (size_t)(q - arg) : strlen(arg);
     if (pl == 0 || pl >= sizeof path)
-        return fail(err, -EINVAL, "v4l2: expected v4l2:/dev/videoN[?options]");
+        return drv__err(err, -EINVAL, "v4l2: expected v4l2:/dev/videoN[?options]");
     memcpy(path, arg, pl);
     path[pl] = '\0';
     drv_v4l2_opts o;
@@ -562,7 +551,7 @@ int drv_v4l2_source_open_sys(drv_source *s, const char *arg, const drv_v4l2_sys 
         return r;
     v4_src *v = calloc(1, sizeof *v);
     if (!v)
-        return fail(err, -ENOMEM, "v4l2: out of memory");
+        return drv__err(err, -ENOMEM, "v4l2: out of memory");
     if ((r = drv_v4l2_cam_open(path, &o, sys, &v->cam, err))) {
         free(v);
         return r;
@@ -575,7 +564,7 @@ int drv_v4l2_source_open_sys(drv_source *s, const char *arg, const drv_v4l2_sys 
     v->mm = malloc((size_t)d.k.width * d.k.height * sizeof *v->mm);
     if (!v->mm) {
         v4_free(v);
-        return fail(err, -ENOMEM, "v4l2 %s: out of memory", path);
+        return drv__err(err, -ENOMEM, "v4l2 %s: out of memory", path);
     }
     if ((r = drv_depth_tracker_create(&d, &v->trk, err))) {
         v4_free(v);
