@@ -50,6 +50,8 @@ typedef struct drv__extremum {
     float anchor[3];  /* the point half-way back along its shortest path (limb root side) */
     int border;       /* within 2.5% of the image border (likely a cut, not an extremity): 1 at the
                          top or a side, 2 at the bottom only (a foot standing below the view) */
+    float path_hmax;  /* the highest point (metres above the source, along `up`) of its shortest
+                         path from the source: an arm's path climbs to the shoulder, a leg's not */
 } drv__extremum;
 
 typedef struct drv__geodesic {
@@ -58,6 +60,8 @@ typedef struct drv__geodesic {
     int *parent;   /* n */
     int *heap;     /* n: binary min-heap of cells */
     int *pos;      /* n: position of a cell in the heap, -1 = not queued */
+    float *h;      /* n: height of a person cell above the source along `up` */
+    float *hmax;   /* n: highest h along the cell's shortest path from the source (first pass) */
     int hn;
 } drv__geodesic;
 
@@ -66,7 +70,7 @@ void drv__geodesic_fini(drv__geodesic *ge);
 /* Accumulative geodesic extrema on the person's cells of g, starting from `source` (a person cell).
  * Returns the number found (<= max), in the order found. */
 int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,
-                          int source, drv__extremum *ex, int max);
+                          int source, const float up[3], drv__extremum *ex, int max);
 
 /* ------------------------------------------------------------------ labelling (label.c) */
 

@@ -41,12 +41,14 @@ void drv_depth_opts_default(drv_depth_opts *o)
     o->max_jump = 0.08f;
     o->seg_jump = 0.25f;
     o->jump_penalty = 0.5f;
+    o->attach_jump = 0.5f;
+    o->attach_frac = 0.1f;
     o->floor = 1;
     o->floor_iters = 48;
     o->floor_tol = 0.025f;
     o->floor_max_tilt = 35.f;
     o->min_area = 0.04f;
-    o->max_extrema = 7;
+    o->max_extrema = 9;
     o->min_extent = 0.12f;
     o->tip_radius = 0.04f;
     o->head_offset = 0.07f;
@@ -180,14 +182,6 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
             src = g->cells[k];
         }
     }
-    int nex = drv__geodesic_extrema(&t->ge, g, &t->o, src, t->ex, t->o.max_extrema);
-    r->nextrema = nex;
-    for (int i = 0; i < nex; i++) {
-        memcpy(r->extrema[i], t->ex[i].tip, sizeof r->extrema[i]);
-        r->geodesic[i] = t->ex[i].geodesic;
-        r->extremum_px[i][0] = g->px[2 * t->ex[i].cell];
-        r->extremum_px[i][1] = g->px[2 * t->ex[i].cell + 1];
-    }
     /* body frame */
     float right[3] = {1, 0, 0};
     float d = right[0] * up[0] + right[1] * up[1] + right[2] * up[2];
@@ -196,6 +190,14 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     float rn = sqrtf(right[0] * right[0] + right[1] * right[1] + right[2] * right[2]);
     for (int a = 0; a < 3; a++)
         right[a] /= rn;
+    int nex = drv__geodesic_extrema(&t->ge, g, &t->o, src, up, t->ex, t->o.max_extrema);
+    r->nextrema = nex;
+    for (int i = 0; i < nex; i++) {
+        memcpy(r->extrema[i], t->ex[i].tip, sizeof r->extrema[i]);
+        r->geodesic[i] = t->ex[i].geodesic;
+        r->extremum_px[i][0] = g->px[2 * t->ex[i].cell];
+        r->extremum_px[i][1] = g->px[2 * t->ex[i].cell + 1];
+    }
     drv__label_prev prev;
     for (int l = 0; l < 5; l++) {
         prev.valid[l] = t->missed[l] <= t->o.hold_frames;

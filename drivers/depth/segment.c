@@ -12,6 +12,10 @@
  *    their depths differ by less than seg_jump); among the components with at least min_area m^2
  *    and a quarter of the largest component's area, the nearest (smallest mean depth) is the
  *    person, so a second person standing behind is ignored.
+ * 4. Occluded limbs: a component of at most attach_frac of the person's area that touches the
+ *    person (8-neighbour) across a depth step below attach_jump joins it - a leg stretched behind
+ *    the other is seen only below the knee, 0.3 m behind the front leg. The centroid stays that of
+ *    the main component.
  */
 #include "depth_internal.h"
 
@@ -300,6 +304,36 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     }
     for (int a = 0; a < 3; a++)
         g->centroid[a] = (float)(cs[a] / g->ncells);
+    /* occluded limbs: c_count[c] < 0 marks a component to attach */
+    const int nmain = g->ncells;
+    const float amax_attach = o->attach_frac * g->c_area[best];
+    int nattach = 0;
+    for (int k = 0; k < nmain && o->attach_jump > 0; k++) {
+        int j = g->cells[k], x = j % gw, y = j / gw;
+        for (int dy = -1; dy <= 1; dy++) {
+            int yy = y + dy;
+            if (yy < 0 || yy >= gh)
+                continue;
+            for (int dx = -1; dx <= 1; dx++) {
+                int xx = x + dx;
+                if (xx < 0 || xx >= gw)
+                    continue;
+                int i = yy * gw + xx, c = g->comp[i];
+                if (c < 0 || c == best || g->c_count[c] < 0 || g->c_area[c] > amax_attach ||
+                    fabsf(g->z[i] - g->z[j]) >= o->attach_jump)
+                    continue;
+                g->c_count[c] = -g->c_count[c];
+                nattach++;
+            }
+        }
+    }
+    for (int i = 0; i < g->n && nattach; i++) {
+        int c = g->comp[i];
+        if (c >= 0 && c != best && g->c_count[c] < 0) {
+            g->person[i] = 1;
+            g->cells[g->ncells++] = i;
+        }
+    }
     g->mean_z = bestz;
     return g->ncells;
 }
