@@ -111,7 +111,8 @@ typedef struct drv_depth_result {
     float raw[DRV_DEPTH_NLABELS][3];  /* this frame's unsmoothed measurement */
     uint8_t valid[DRV_DEPTH_NLABELS]; /* 1 when found in this frame */
     float conf[DRV_DEPTH_NLABELS];    /* 0..1 */
-    int nextrema;                     /* accumulative geodesic extrema found */
+    int nextrema;                     /* accumulative geodesic extrema found, followed by the hands
+                                         estimated from arm loops (geodesic 0), up to the max */
     float extrema[DRV_DEPTH_MAX_EXTREMA][3];
     float geodesic[DRV_DEPTH_MAX_EXTREMA]; /* metres from the sources at the time it was found */
     int extremum_label[DRV_DEPTH_MAX_EXTREMA]; /* DRV_DEPTH_* or -1 */
