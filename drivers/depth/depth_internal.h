@@ -24,6 +24,7 @@ typedef struct drv__grid {
     float *c_sumz;   /*    sum of depths, */
     int *c_count;    /*    cells */
     int32_t *hole;   /* n: background cells enclosed by the person: hole id, -1 = not a hole */
+    int *hole_cells; /* n: scratch, the cells of the hole being measured */
     float centroid[3]; /* mean of the person's cells */
     float mean_z;
 } drv__grid;

@@ -70,8 +70,9 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     g->c_sumz = malloc(n * sizeof *g->c_sumz);
     g->c_count = malloc(n * sizeof *g->c_count);
     g->hole = malloc(n * sizeof *g->hole);
+    g->hole_cells = malloc(n * sizeof *g->hole_cells);
     if (!g->P || !g->z || !g->px || !g->comp || !g->person || !g->stack || !g->cells ||
-        !g->c_area || !g->c_sumz || !g->c_count || !g->hole) {
+        !g->c_area || !g->c_sumz || !g->c_count || !g->hole || !g->hole_cells) {
         drv__grid_fini(g);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for a %dx%d grid", o->k.width,
@@ -95,6 +96,7 @@ void drv__grid_fini(drv__grid *g)
     free(g->c_sumz);
     free(g->c_count);
     free(g->hole);
+    free(g->hole_cells);
     memset(g, 0, sizeof *g);
 }
 
@@ -359,22 +361,36 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
     const int gw = g->gw, gh = g->gh;
     if (g->ncells == 0 || max <= 0)
         return 0;
-    /* the outside: flood from the border through non-person cells (4-neighbour); -2 = outside */
-    int top = 0;
-    for (int i = 0; i < g->n; i++) {
-        int x = i % gw, y = i / gw;
-        g->hole[i] = -1;
-        if (!g->person[i] && (x == 0 || y == 0 || x == gw - 1 || y == gh - 1)) {
-            g->hole[i] = -2;
-            g->stack[top++] = i;
-        }
+    /* work inside the person's bounding box grown by a cell (all beyond it is outside) */
+    int x0 = gw, x1 = -1, y0 = gh, y1 = -1;
+    for (int k = 0; k < g->ncells; k++) {
+        int x = g->cells[k] % gw, y = g->cells[k] / gw;
+        x0 = x < x0 ? x : x0;
+        x1 = x > x1 ? x : x1;
+        y0 = y < y0 ? y : y0;
+        y1 = y > y1 ? y : y1;
     }
+    x0 = x0 > 0 ? x0 - 1 : 0;
+    y0 = y0 > 0 ? y0 - 1 : 0;
+    x1 = x1 < gw - 1 ? x1 + 1 : gw - 1;
+    y1 = y1 < gh - 1 ? y1 + 1 : gh - 1;
+    /* the outside: flood from the box's rim through non-person cells (4-neighbour); -2 = outside */
+    int top = 0;
+    for (int y = y0; y <= y1; y++)
+        for (int x = x0; x <= x1; x++) {
+            int i = y * gw + x;
+            g->hole[i] = -1;
+            if (!g->person[i] && (x == x0 || y == y0 || x == x1 || y == y1)) {
+                g->hole[i] = -2;
+                g->stack[top++] = i;
+            }
+        }
     static const int d4[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
     while (top) {
         int j = g->stack[--top], x = j % gw, y = j / gw;
         for (int k = 0; k < 4; k++) {
             int xx = x + d4[k][0], yy = y + d4[k][1];
-            if (xx < 0 || yy < 0 || xx >= gw || yy >= gh)
+            if (xx < x0 || yy < y0 || xx > x1 || yy > y1)
                 continue;
             int i = yy * gw + xx;
             if (g->person[i] || g->hole[i] != -1)
@@ -396,8 +412,8 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
         return 0;
     ux /= un, uy /= un, rx /= rn, ry /= rn;
     int nout = 0, nh = 0;
-    for (int s0 = 0; s0 < g->n && nh < LOOP_MAX_HOLES; s0++) {
-        if (g->person[s0] || g->hole[s0] != -1)
+    for (int s0 = y0 * gw + x0; s0 <= y1 * gw + x1 && nh < LOOP_MAX_HOLES; s0++) {
+        if (s0 % gw < x0 || s0 % gw > x1 || g->person[s0] || g->hole[s0] != -1)
             continue;
         int id = nh++, count = 0, b = s0, oc = s0;
         float bh = FLT_MAX, ol = 0, su = 0, sv = 0, zlo = FLT_MAX, zhi = 0;
@@ -405,7 +421,7 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
         g->stack[top++] = s0;
         while (top) {
             int j = g->stack[--top], x = j % gw, y = j / gw;
-            count++;
+            g->hole_cells[count++] = j;
             su += (float)x;
             sv += (float)y;
             for (int k = 0; k < 4; k++) {
@@ -433,9 +449,8 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
             continue;
         float sg = side > 0 ? 1.f : -1.f;
         /* B: the lowest cell; O: the one farthest to the side (second pass over the hole) */
-        for (int i = 0; i < g->n; i++) {
-            if (g->hole[i] != id)
-                continue;
+        for (int k = 0; k < count; k++) {
+            int i = g->hole_cells[k];
             float du = (float)(i % gw) - cu, dv = (float)(i / gw) - cv;
             float h = du * ux + dv * uy, l = sg * (du * rx + dv * ry);
             if (h < bh) {
