@@ -18,6 +18,7 @@
 #include "depth/depth.h"
 #include "depth/render.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -30,7 +31,7 @@ static void help(void)
 {
     printf("usage: meshsteer depth-eval --mesh PATH [--rest REST.obj] --rig RIG.json [--frames SPEC]\n"
            "                            [--distance M] [--yaw DEG] [--fps F] [--step N] [--no-smooth]\n"
-           "                            [--travel] [--json]\n\n"
+           "                            [--travel] [--per-frame] [--dump-depth FILE] [--json]\n\n"
            "Renders the mesh sequence as Kinect v1 depth (the test camera), extracts head, hand and\n"
            "foot markers from every frame and scores them against the rig markers named head,\n"
            "lhand, rhand, lfoot, rfoot.\n\n"
@@ -45,6 +46,11 @@ static void help(void)
            "  --no-smooth      score the unfiltered markers\n"
            "  --travel         keep the performer's travel towards/away from the camera (default:\n"
            "                   each frame's centroid is held at --distance; sideways travel is kept)\n"
+           "  --per-frame      print one line per frame: each ground-truth marker's error to the\n"
+           "                   same-label extracted marker (cm, '-' = none, 'o' = out of view) and\n"
+           "                   the extrema with their labels (diagnostics, before the summary)\n"
+           "  --dump-depth FILE  write every rendered frame to FILE as raw 640x480 little-endian\n"
+           "                   uint16 millimetres, frame after frame (for offline debugging)\n"
            "  --json           print one JSON object (otherwise a short table)\n");
 }
 
@@ -82,7 +88,9 @@ int cmd_depth_eval(int argc, char **argv)
 {
     const char *mesh = NULL, *rest = NULL, *rigp = NULL, *frames = ":";
     double distance = 2.5, yaw_deg = 0, fps_opt = 30;
-    int json = 0, smooth = 1, step = 4, travel = 0;
+    int json = 0, smooth = 1, step = 4, travel = 0, per_frame = 0;
+    const char *dump = NULL;
+    FILE *dumpf = NULL;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -95,10 +103,14 @@ int cmd_depth_eval(int argc, char **argv)
             smooth = 0;
         } else if (!strcmp(a, "--travel")) {
             travel = 1;
+        } else if (!strcmp(a, "--per-frame")) {
+            per_frame = 1;
         } else if (!v) {
             return cli_usage_error(CMD, "unknown option or missing value: %s", a);
         } else if (!strcmp(a, "--mesh")) {
             mesh = v, i++;
+        } else if (!strcmp(a, "--dump-depth")) {
+            dump = v, i++;
         } else if (!strcmp(a, "--rest")) {
             rest = v, i++;
         } else if (!strcmp(a, "--rig")) {
@@ -251,12 +263,23 @@ int cmd_depth_eval(int argc, char **argv)
             status = cli_fail(CMD, CLI_EXIT_FAIL, "frame %d: %s", idx[k], derr);
             goto done;
         }
+        if (dump && !dumpf && !(dumpf = fopen(dump, "wb"))) {
+            status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: %s", dump, strerror(errno));
+            goto done;
+        }
+        if (dumpf && fwrite(depth, sizeof *depth, (size_t)ro.k.width * ro.k.height, dumpf) !=
+                         (size_t)ro.k.width * ro.k.height) {
+            status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: write failed", dump);
+            goto done;
+        }
         drv_depth_result res;
         struct timespec a, b;
         clock_gettime(CLOCK_MONOTONIC, &a);
         drv_depth_tracker_process(trk, depth, (uint64_t)llround(k * 1e6 / fps), &res);
         clock_gettime(CLOCK_MONOTONIC, &b);
         ms[k] = (double)(b.tv_sec - a.tv_sec) * 1e3 + (double)(b.tv_nsec - a.tv_nsec) * 1e-6;
+        if (per_frame)
+            printf("%4d", idx[k]);
         for (int l = 0; l < 5; l++) {
             float gt[3];
             drv_render_world_to_camera(ren, V + 3 * gv[l], gt);
@@ -264,7 +287,16 @@ int cmd_depth_eval(int argc, char **argv)
             if (drv_intrinsics_project(&ro.k, gt, &gu, &gvv) || gu < 4 || gvv < 4 ||
                 gu > ro.k.width - 5 || gvv > ro.k.height - 5) {
                 out_of_view++;
+                if (per_frame)
+                    printf(" %s o(%3.0f,%3.0f)", drv_depth_label_names[l], gu, gvv);
                 continue; /* the camera cannot see it (a foot near the camera, a raised hand) */
+            }
+            if (per_frame) {
+                if (res.valid[l])
+                    printf(" %s %3.0f(%3.0f,%3.0f)", drv_depth_label_names[l],
+                           100 * dist3(res.xyz[l], gt), gu, gvv);
+                else
+                    printf(" %s   -(%3.0f,%3.0f)", drv_depth_label_names[l], gu, gvv);
             }
             int kind = l == 0 ? 0 : l <= 2 ? 1 : 2;
             float best = INFINITY, same = INFINITY;
@@ -291,6 +323,15 @@ int cmd_depth_eval(int argc, char **argv)
                 if (same <= 0.10f)
                     side_ok++;
             }
+        }
+        if (per_frame) {
+            printf(" |");
+            for (int e = 0; e < res.nextrema; e++)
+                printf(" %s(%d,%d g%.2f)",
+                       res.extremum_label[e] >= 0 ? drv_depth_label_names[res.extremum_label[e]]
+                                                  : "?",
+                       res.extremum_px[e][0], res.extremum_px[e][1], res.geodesic[e]);
+            printf("\n");
         }
     }
     double med, p99;
@@ -334,6 +375,8 @@ int cmd_depth_eval(int argc, char **argv)
     }
     status = CLI_EXIT_OK;
 done:
+    if (dumpf)
+        fclose(dumpf);
     for (int k = 0; k < 3; k++)
         free(errs[k]);
     free(ms);

@@ -73,6 +73,12 @@ typedef struct drv_depth_opts {
                               jump_penalty metres added: a dress hem in front of the legs, a
                               hand in front of the body (reached through the arm when shorter) */
     float jump_penalty;
+    float attach_jump;     /* a small component (at most attach_frac of the person's area) that
+                              touches the person across a depth step below this (metres) is a
+                              limb seen past an occluder (a leg behind the other, 0.3 m back) and
+                              joins the person; the geodesic graph crosses that step with
+                              jump_penalty added. 0 = off */
+    float attach_frac;
     int floor;             /* 1: find and remove a floor plane (RANSAC) */
     int floor_iters;       /* RANSAC hypotheses */
     float floor_tol;       /* metres: cells this close to the floor plane (or below) are floor */
@@ -105,7 +111,8 @@ typedef struct drv_depth_result {
     float raw[DRV_DEPTH_NLABELS][3];  /* this frame's unsmoothed measurement */
     uint8_t valid[DRV_DEPTH_NLABELS]; /* 1 when found in this frame */
     float conf[DRV_DEPTH_NLABELS];    /* 0..1 */
-    int nextrema;                     /* accumulative geodesic extrema found */
+    int nextrema;                     /* accumulative geodesic extrema found, followed by the hands
+                                         estimated from arm loops (geodesic 0), up to the max */
     float extrema[DRV_DEPTH_MAX_EXTREMA][3];
     float geodesic[DRV_DEPTH_MAX_EXTREMA]; /* metres from the sources at the time it was found */
     int extremum_label[DRV_DEPTH_MAX_EXTREMA]; /* DRV_DEPTH_* or -1 */

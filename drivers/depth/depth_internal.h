@@ -8,6 +8,8 @@
 
 /* ------------------------------------------------------------------ the downsampled grid (segment.c) */
 
+typedef struct drv__extremum drv__extremum;
+
 typedef struct drv__grid {
     int gw, gh, n, step;
     float *P;        /* n x 3: the cell's sample point, Y-up camera frame, metres */
@@ -21,6 +23,8 @@ typedef struct drv__grid {
     float *c_area;   /* n: per component: area (m^2), */
     float *c_sumz;   /*    sum of depths, */
     int *c_count;    /*    cells */
+    int32_t *hole;   /* n: background cells enclosed by the person: hole id, -1 = not a hole */
+    int *hole_cells; /* n: scratch, the cells of the hole being measured */
     float centroid[3]; /* mean of the person's cells */
     float mean_z;
 } drv__grid;
@@ -38,19 +42,31 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
  * least min_area and a quarter of the largest one. Fills person/cells/centroid; returns ncells. */
 int drv__segment_person(drv__grid *g, const drv_depth_opts *o);
 
+/* Hands closing a loop with the torso (hands on the hips): the background the person encloses
+ * (4-connected non-person cells that do not reach the image border) forms holes; a hole of arm-loop
+ * size beside the torso, between hip and chest height, yields a hand candidate (see segment.c).
+ * up/right: body frame as in drv__label_assign. Appends at most `max` candidates to ex (loop =
+ * +1 / -1 for a hole on the camera's +X / -X side) and returns how many. */
+int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
+                           const float right[3], drv__extremum *ex, int max);
+
 /* xorshift64* in [0, 1) */
 double drv__rand01(uint64_t *s);
 
 /* ------------------------------------------------------------------ geodesic extrema (geodesic.c) */
 
-typedef struct drv__extremum {
+struct drv__extremum {
     int cell;
     float geodesic;   /* metres from the nearest earlier source when found */
     float tip[3];     /* mean of the cells within tip_radius of it */
     float anchor[3];  /* the point half-way back along its shortest path (limb root side) */
     int border;       /* within 2.5% of the image border (likely a cut, not an extremity): 1 at the
                          top or a side, 2 at the bottom only (a foot standing below the view) */
-} drv__extremum;
+    int loop;         /* 0: a geodesic extremum; +1 / -1: a hand estimated from an arm loop on the
+                         camera's +X / -X side (drv__segment_arm_loops) */
+    float path_hmax;  /* the highest point (metres above the source, along `up`) of its shortest
+                         path from the source: an arm's path climbs to the shoulder, a leg's not */
+};
 
 typedef struct drv__geodesic {
     int n;
@@ -58,6 +74,8 @@ typedef struct drv__geodesic {
     int *parent;   /* n */
     int *heap;     /* n: binary min-heap of cells */
     int *pos;      /* n: position of a cell in the heap, -1 = not queued */
+    float *h;      /* n: height of a person cell above the source along `up` */
+    float *hmax;   /* n: highest h along the cell's shortest path from the source (first pass) */
     int hn;
 } drv__geodesic;
 
@@ -66,7 +84,7 @@ void drv__geodesic_fini(drv__geodesic *ge);
 /* Accumulative geodesic extrema on the person's cells of g, starting from `source` (a person cell).
  * Returns the number found (<= max), in the order found. */
 int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,
-                          int source, drv__extremum *ex, int max);
+                          int source, const float up[3], drv__extremum *ex, int max);
 
 /* ------------------------------------------------------------------ labelling (label.c) */
 

@@ -13,6 +13,8 @@
  * Step 3 is done incrementally: a Dijkstra from e_k alone that only expands cells whose distance
  * decreases, which gives exactly the multi-source distances at a fraction of a full run.
  * paper -> code: c -> `source`, d -> ge->dist, e_k -> ex[k].cell.
+ * The first pass also records, per cell, the highest point of its shortest path from the source
+ * (along the body's up axis): a hand's path climbs to the shoulder, a foot's does not.
  * Per extremum we also keep the mean of the cells within tip_radius (a less noisy marker than the
  * single farthest cell) and an anchor: the point half-way back along its shortest path, which lies
  * on the limb near its root (shoulder or hip side) and tells left from right when limbs cross. */
@@ -33,7 +35,9 @@ int drv__geodesic_init(drv__geodesic *ge, int n, char *err)
     ge->parent = malloc((size_t)n * sizeof *ge->parent);
     ge->heap = malloc((size_t)n * sizeof *ge->heap);
     ge->pos = malloc((size_t)n * sizeof *ge->pos);
-    if (!ge->dist || !ge->parent || !ge->heap || !ge->pos) {
+    ge->h = malloc((size_t)n * sizeof *ge->h);
+    ge->hmax = malloc((size_t)n * sizeof *ge->hmax);
+    if (!ge->dist || !ge->parent || !ge->heap || !ge->pos || !ge->h || !ge->hmax) {
         drv__geodesic_fini(ge);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for the geodesic graph (%d cells)", n);
@@ -53,6 +57,8 @@ void drv__geodesic_fini(drv__geodesic *ge)
     free(ge->parent);
     free(ge->heap);
     free(ge->pos);
+    free(ge->h);
+    free(ge->hmax);
     memset(ge, 0, sizeof *ge);
 }
 
@@ -123,7 +129,7 @@ static int heap_pop(drv__geodesic *ge)
 /* Dijkstra from the queued cells; only improvements are expanded. With tip != NULL, sums the
  * positions of cells that end up within `radius` (they are reached from the new source). */
 static void run(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o, float radius,
-                double *tip, int *ntip)
+                double *tip, int *ntip, int first)
 {
     const int gw = g->gw, gh = g->gh;
     while (ge->hn) {
@@ -150,7 +156,7 @@ static void run(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o, 
                 if (!g->person[v])
                     continue;
                 float jz = fabsf(g->z[v] - zu);
-                if (jz >= o->seg_jump)
+                if (jz >= o->seg_jump && (g->comp[v] == g->comp[u] || jz >= o->attach_jump))
                     continue;
                 const float *pv = g->P + 3 * v;
                 float ex = pv[0] - pu[0], ey = pv[1] - pu[1], ez = pv[2] - pu[2];
@@ -159,6 +165,8 @@ static void run(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o, 
                 if (nd < ge->dist[v]) {
                     ge->dist[v] = nd;
                     ge->parent[v] = u;
+                    if (first)
+                        ge->hmax[v] = fmaxf(ge->hmax[u], ge->h[v]);
                     heap_push(ge, v);
                 }
             }
@@ -167,20 +175,24 @@ static void run(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o, 
 }
 
 int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,
-                          int source, drv__extremum *ex, int max)
+                          int source, const float up[3], drv__extremum *ex, int max)
 {
+    if (source < 0 || source >= g->n || !g->person[source])
+        return 0;
+    const float *ps = g->P + 3 * source;
     for (int k = 0; k < g->ncells; k++) {
         int c = g->cells[k];
+        const float *p = g->P + 3 * c;
         ge->dist[c] = FLT_MAX;
         ge->parent[c] = -1;
         ge->pos[c] = -1;
+        ge->h[c] = (p[0] - ps[0]) * up[0] + (p[1] - ps[1]) * up[1] + (p[2] - ps[2]) * up[2];
     }
     ge->hn = 0;
-    if (source < 0 || source >= g->n || !g->person[source])
-        return 0;
     ge->dist[source] = 0;
+    ge->hmax[source] = 0;
     heap_push(ge, source);
-    run(ge, g, o, 0, NULL, NULL);
+    run(ge, g, o, 0, NULL, NULL, 1);
     int nex = 0;
     while (nex < max) {
         int e = -1;
@@ -198,6 +210,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         drv__extremum *x = &ex[nex++];
         x->cell = e;
         x->geodesic = de;
+        x->path_hmax = ge->hmax[e];
         int gx = e % g->gw, gy = e / g->gw;
         int bx = g->gw / 40 + 1, by = g->gh / 40 + 1; /* 2.5% of the image, at least a cell */
         x->border = gx < bx || gy < by || gx >= g->gw - bx ? 1 : gy >= g->gh - by ? 2 : 0;
@@ -210,7 +223,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         ge->dist[e] = 0;
         ge->parent[e] = -1;
         heap_push(ge, e);
-        run(ge, g, o, o->tip_radius, tip, &ntip);
+        run(ge, g, o, o->tip_radius, tip, &ntip, 0);
         for (int i = 0; i < 3; i++)
             x->tip[i] = ntip ? (float)(tip[i] / ntip) : g->P[3 * e + i];
     }

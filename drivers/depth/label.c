@@ -5,8 +5,12 @@
  * l = (t - c).right and l_a = (a - c).right. `right` is the camera's +X, which is the left side of a
  * person facing the camera. Costs (metres scaled to "units"; lower is better):
  *   head : |l_a|/0.08 + |l|/0.15 + max(0, 0.3 - h)/0.1 + max(0, g - 1.0)/0.1   (h > 0.1, not on the border)
- *   hand : max(0, -s l_a)/0.04 + max(0, -0.6 - h)/0.1 + max(0, 0.4 - g)/0.1   (s = +1 left, -1 right)
- *   foot : max(0, -s l_a)/0.04 + max(0, h + 0.75)/0.1 + max(0, 0.7 - g)/0.1  (h < -0.55, not on the border)
+ *   hand : max(0, -s l_a)/0.04 + max(0, -0.6 - h)/0.1 + max(0, 0.4 - g)/0.1 + max(0, 0.15 - m)/0.1
+ *          (s = +1 left, -1 right; m = the highest point of its shortest path from the centroid
+ *          above the centroid: an arm's path climbs to the shoulder - a leg's or a dress hem's not;
+ *          the m term only for h < -0.3: a hand beside the chest needs no climb)
+ *   foot : max(0, -s l_a)/0.04 + max(0, h + 0.75)/0.1 + max(0, 0.7 - g)/0.1 + max(0, m - 0.15)/0.1
+ *          (h < -0.55, not on the border)
  *   An extremum touching the image border is a cut through the body, not an extremity: it can
  *   not be the head or a foot, and costs 2 more as a hand (a hand partly out of view);
  *   + temporal term min(|t - p_prev|/0.1, 3) - 1 when the label had a position last frame,
@@ -21,8 +25,12 @@
 
 #define MISS 2.5f
 #define FOOT_CUT 0.3f /* a foot whose tip reaches the bottom of the image */
+#define ARM_LOW -0.3f   /* a hand this far below the centroid (hanging, next to a dress hem) ... */
+#define ARM_CLIMB 0.15f /* ... has a path from the centroid that climbs at least this (shoulder) */
+#define LEG_CLIMB 0.15f /* ... a foot's at most this */
 #define NL 5
-#define MAXE DRV_DEPTH_MAX_EXTREMA
+#define MAXE (DRV_DEPTH_MAX_EXTREMA + 2)
+#define LOOP_PENALTY 2.f /* a free hand on a side whose arm closes a loop */
 
 static float dot3(const float *a, const float *b)
 {
@@ -69,6 +77,10 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
 {
     search s;
     s.nex = nex < MAXE ? nex : MAXE;
+    int loop_side[2] = {0, 0};
+    for (int e = 0; e < s.nex; e++)
+        if (ex[e].loop)
+            loop_side[ex[e].loop > 0 ? 0 : 1] = 1;
     for (int e = 0; e < s.nex; e++) {
         const drv__extremum *x = &ex[e];
         float r[3] = {x->tip[0] - centroid[0], x->tip[1] - centroid[1], x->tip[2] - centroid[2]};
@@ -79,15 +91,29 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
         s.cost[0][e] = h > 0.1f && !x->border ? fabsf(la) / 0.08f + fabsf(l) / 0.15f + pos(0.3f - h) / 0.1f +
                                       pos(g - 1.0f) / 0.1f + b
                                 : FLT_MAX;
+        if (x->loop) { /* a hand on the hip, from an arm loop: that side's hand only */
+            for (int k = 0; k < NL; k++)
+                s.cost[k][e] = k == (x->loop > 0 ? 1 : 2) ? 0.f : FLT_MAX;
+            continue;
+        }
         for (int side = 0; side < 2; side++) {
             float sg = side == 0 ? 1.f : -1.f;
-            s.cost[1 + side][e] =
-                pos(-sg * la) / 0.04f + pos(-0.6f - h) / 0.1f + pos(0.4f - g) / 0.1f + b;
+            s.cost[1 + side][e] = pos(-sg * la) / 0.04f + pos(-0.6f - h) / 0.1f +
+                                  pos(0.4f - g) / 0.1f +
+                                  (h < ARM_LOW ? pos(ARM_CLIMB - x->path_hmax) / 0.1f : 0.f) + b;
             s.cost[3 + side][e] = h < -0.55f && x->border != 1
                                       ? pos(-sg * la) / 0.04f + pos(h + 0.75f) / 0.1f +
-                                            pos(0.7f - g) / 0.1f + (x->border ? FOOT_CUT : 0.f)
+                                            pos(0.7f - g) / 0.1f +
+                                            pos(x->path_hmax - LEG_CLIMB) / 0.1f +
+                                            (x->border ? FOOT_CUT : 0.f)
                                       : FLT_MAX;
         }
+    }
+    for (int e = 0; e < s.nex; e++) {
+        const drv__extremum *x = &ex[e];
+        for (int side = 0; side < 2 && !x->loop; side++)
+            if (loop_side[side])
+                s.cost[1 + side][e] += LOOP_PENALTY;
         if (prev) {
             for (int k = 0; k < NL; k++) {
                 if (!prev->valid[k] || s.cost[k][e] == FLT_MAX)

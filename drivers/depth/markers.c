@@ -3,7 +3,8 @@
  * (one_euro.c). See depth.h for the frames and units.
  *
  * Per frame: sample + gate -> floor plane -> nearest person -> geodesic source = the person's cell
- * nearest to its 3D centroid -> up to max_extrema extrema -> labels (body frame: up = the floor
+ * nearest to its 3D centroid -> up to max_extrema extrema, plus hands estimated from arm loops
+ * (segment.c) -> labels (body frame: up = the floor
  * normal when a floor was found, else the camera's +Y; right = the camera's +X made orthogonal to
  * up) -> per-label filter. A label not found keeps its last output for hold_frames frames (reported
  * invalid) so that it can be re-associated; after that its filter restarts. The torso marker is the
@@ -25,7 +26,7 @@ struct drv_depth_tracker {
     drv__grid g;
     drv__geodesic ge;
     uint64_t rng;
-    drv__extremum ex[DRV_DEPTH_MAX_EXTREMA];
+    drv__extremum ex[DRV_DEPTH_MAX_EXTREMA + 2]; /* geodesic extrema, then arm-loop hands */
     drv_one_euro f[DRV_DEPTH_NLABELS][3];
     float out[DRV_DEPTH_NLABELS][3]; /* last output */
     int missed[DRV_DEPTH_NLABELS];   /* frames since last found; > hold_frames = unknown */
@@ -41,12 +42,14 @@ void drv_depth_opts_default(drv_depth_opts *o)
     o->max_jump = 0.08f;
     o->seg_jump = 0.25f;
     o->jump_penalty = 0.5f;
+    o->attach_jump = 0.5f;
+    o->attach_frac = 0.1f;
     o->floor = 1;
     o->floor_iters = 48;
     o->floor_tol = 0.025f;
     o->floor_max_tilt = 35.f;
     o->min_area = 0.04f;
-    o->max_extrema = 7;
+    o->max_extrema = 9;
     o->min_extent = 0.12f;
     o->tip_radius = 0.04f;
     o->head_offset = 0.07f;
@@ -180,14 +183,6 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
             src = g->cells[k];
         }
     }
-    int nex = drv__geodesic_extrema(&t->ge, g, &t->o, src, t->ex, t->o.max_extrema);
-    r->nextrema = nex;
-    for (int i = 0; i < nex; i++) {
-        memcpy(r->extrema[i], t->ex[i].tip, sizeof r->extrema[i]);
-        r->geodesic[i] = t->ex[i].geodesic;
-        r->extremum_px[i][0] = g->px[2 * t->ex[i].cell];
-        r->extremum_px[i][1] = g->px[2 * t->ex[i].cell + 1];
-    }
     /* body frame */
     float right[3] = {1, 0, 0};
     float d = right[0] * up[0] + right[1] * up[1] + right[2] * up[2];
@@ -196,6 +191,17 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     float rn = sqrtf(right[0] * right[0] + right[1] * right[1] + right[2] * right[2]);
     for (int a = 0; a < 3; a++)
         right[a] /= rn;
+    int nex = drv__geodesic_extrema(&t->ge, g, &t->o, src, up, t->ex, t->o.max_extrema);
+    for (int i = 0; i < nex; i++)
+        t->ex[i].loop = 0;
+    nex += drv__segment_arm_loops(g, &t->o, up, right, t->ex + nex, 2);
+    r->nextrema = nex < DRV_DEPTH_MAX_EXTREMA ? nex : DRV_DEPTH_MAX_EXTREMA;
+    for (int i = 0; i < r->nextrema; i++) {
+        memcpy(r->extrema[i], t->ex[i].tip, sizeof r->extrema[i]);
+        r->geodesic[i] = t->ex[i].geodesic;
+        r->extremum_px[i][0] = g->px[2 * t->ex[i].cell];
+        r->extremum_px[i][1] = g->px[2 * t->ex[i].cell + 1];
+    }
     drv__label_prev prev;
     for (int l = 0; l < 5; l++) {
         prev.valid[l] = t->missed[l] <= t->o.hold_frames;
@@ -206,7 +212,8 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     drv__label_assign(t->ex, nex, g->centroid, up, right, &prev, label, conf);
     for (int l = 0; l < 5; l++) {
         if (label[l] >= 0) {
-            r->extremum_label[label[l]] = l;
+            if (label[l] < DRV_DEPTH_MAX_EXTREMA)
+                r->extremum_label[label[l]] = l;
             float p[3];
             memcpy(p, t->ex[label[l]].tip, sizeof p);
             if (l == DRV_DEPTH_HEAD) {

@@ -12,10 +12,23 @@
  *    their depths differ by less than seg_jump); among the components with at least min_area m^2
  *    and a quarter of the largest component's area, the nearest (smallest mean depth) is the
  *    person, so a second person standing behind is ignored.
+ * 4. Occluded limbs: a component of at most attach_frac of the person's area that touches the
+ *    person (8-neighbour) across a depth step below attach_jump joins it - a leg stretched behind
+ *    the other is seen only below the knee, 0.3 m behind the front leg. The centroid stays that of
+ *    the main component.
+ * 5. Arm loops (drv__segment_arm_loops): with a hand on the hip, the arm and the torso enclose a
+ *    hole of background and the hand is no geodesic extremum (the arm is a loop). Holes are the
+ *    4-connected non-person cells that do not reach the image border. A hole beside the torso
+ *    (its centre 0.06 .. 0.45 m to the side, -0.25 .. +0.45 m above the centroid) of 0.002 ..
+ *    0.08 m^2 whose rim spans less than LOOP_DEPTH in depth (an arm reaching forward past the
+ *    torso leaves a gap too, but its rim is half arm, half torso far behind) gives a hand: its lowest cell B is where the wrist meets the hip; its cell farthest
+ *    to the side O lies inside the elbow, so O -> B is the forearm's direction, and the finger tips
+ *    lie a hand's length (LOOP_HAND m) beyond B along it, on the body.
  */
 #include "depth_internal.h"
 
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -56,8 +69,10 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     g->c_area = malloc(n * sizeof *g->c_area);
     g->c_sumz = malloc(n * sizeof *g->c_sumz);
     g->c_count = malloc(n * sizeof *g->c_count);
+    g->hole = malloc(n * sizeof *g->hole);
+    g->hole_cells = malloc(n * sizeof *g->hole_cells);
     if (!g->P || !g->z || !g->px || !g->comp || !g->person || !g->stack || !g->cells ||
-        !g->c_area || !g->c_sumz || !g->c_count) {
+        !g->c_area || !g->c_sumz || !g->c_count || !g->hole || !g->hole_cells) {
         drv__grid_fini(g);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for a %dx%d grid", o->k.width,
@@ -80,6 +95,8 @@ void drv__grid_fini(drv__grid *g)
     free(g->c_area);
     free(g->c_sumz);
     free(g->c_count);
+    free(g->hole);
+    free(g->hole_cells);
     memset(g, 0, sizeof *g);
 }
 
@@ -300,6 +317,179 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     }
     for (int a = 0; a < 3; a++)
         g->centroid[a] = (float)(cs[a] / g->ncells);
+    /* occluded limbs: c_count[c] < 0 marks a component to attach */
+    const int nmain = g->ncells;
+    const float amax_attach = o->attach_frac * g->c_area[best];
+    int nattach = 0;
+    for (int k = 0; k < nmain && o->attach_jump > 0; k++) {
+        int j = g->cells[k], x = j % gw, y = j / gw;
+        for (int dy = -1; dy <= 1; dy++) {
+            int yy = y + dy;
+            if (yy < 0 || yy >= gh)
+                continue;
+            for (int dx = -1; dx <= 1; dx++) {
+                int xx = x + dx;
+                if (xx < 0 || xx >= gw)
+                    continue;
+                int i = yy * gw + xx, c = g->comp[i];
+                if (c < 0 || c == best || g->c_count[c] < 0 || g->c_area[c] > amax_attach ||
+                    fabsf(g->z[i] - g->z[j]) >= o->attach_jump)
+                    continue;
+                g->c_count[c] = -g->c_count[c];
+                nattach++;
+            }
+        }
+    }
+    for (int i = 0; i < g->n && nattach; i++) {
+        int c = g->comp[i];
+        if (c >= 0 && c != best && g->c_count[c] < 0) {
+            g->person[i] = 1;
+            g->cells[g->ncells++] = i;
+        }
+    }
     g->mean_z = bestz;
     return g->ncells;
+}
+
+#define LOOP_HAND 0.10f
+#define LOOP_DEPTH 0.25f
+#define LOOP_MAX_HOLES 64
+
+int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
+                           const float right[3], drv__extremum *ex, int max)
+{
+    const int gw = g->gw, gh = g->gh;
+    if (g->ncells == 0 || max <= 0)
+        return 0;
+    /* work inside the person's bounding box grown by a cell (all beyond it is outside) */
+    int x0 = gw, x1 = -1, y0 = gh, y1 = -1;
+    for (int k = 0; k < g->ncells; k++) {
+        int x = g->cells[k] % gw, y = g->cells[k] / gw;
+        x0 = x < x0 ? x : x0;
+        x1 = x > x1 ? x : x1;
+        y0 = y < y0 ? y : y0;
+        y1 = y > y1 ? y : y1;
+    }
+    x0 = x0 > 0 ? x0 - 1 : 0;
+    y0 = y0 > 0 ? y0 - 1 : 0;
+    x1 = x1 < gw - 1 ? x1 + 1 : gw - 1;
+    y1 = y1 < gh - 1 ? y1 + 1 : gh - 1;
+    /* the outside: flood from the box's rim through non-person cells (4-neighbour); -2 = outside */
+    int top = 0;
+    for (int y = y0; y <= y1; y++)
+        for (int x = x0; x <= x1; x++) {
+            int i = y * gw + x;
+            g->hole[i] = -1;
+            if (!g->person[i] && (x == x0 || y == y0 || x == x1 || y == y1)) {
+                g->hole[i] = -2;
+                g->stack[top++] = i;
+            }
+        }
+    static const int d4[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    while (top) {
+        int j = g->stack[--top], x = j % gw, y = j / gw;
+        for (int k = 0; k < 4; k++) {
+            int xx = x + d4[k][0], yy = y + d4[k][1];
+            if (xx < x0 || yy < y0 || xx > x1 || yy > y1)
+                continue;
+            int i = yy * gw + xx;
+            if (g->person[i] || g->hole[i] != -1)
+                continue;
+            g->hole[i] = -2;
+            g->stack[top++] = i;
+        }
+    }
+    /* the holes, one at a time: flood, then measure */
+    const float z = g->mean_z;
+    const float cell_m = z * (float)g->step / (float)o->k.fx; /* a cell's size at the person */
+    /* the centroid's pixel, in cells */
+    float cu = (float)(o->k.cx + g->centroid[0] / -g->centroid[2] * o->k.fx) / (float)g->step;
+    float cv = (float)(o->k.cy - g->centroid[1] / -g->centroid[2] * o->k.fy) / (float)g->step;
+    /* image-plane directions of the body frame (cells): up and right */
+    float ux = up[0], uy = -up[1], rx = right[0], ry = -right[1];
+    float un = sqrtf(ux * ux + uy * uy), rn = sqrtf(rx * rx + ry * ry);
+    if (un < 1e-3f || rn < 1e-3f)
+        return 0;
+    ux /= un, uy /= un, rx /= rn, ry /= rn;
+    int nout = 0, nh = 0;
+    for (int s0 = y0 * gw + x0; s0 <= y1 * gw + x1 && nh < LOOP_MAX_HOLES; s0++) {
+        if (s0 % gw < x0 || s0 % gw > x1 || g->person[s0] || g->hole[s0] != -1)
+            continue;
+        int id = nh++, count = 0, b = s0, oc = s0;
+        float bh = FLT_MAX, ol = 0, su = 0, sv = 0, zlo = FLT_MAX, zhi = 0;
+        g->hole[s0] = id;
+        g->stack[top++] = s0;
+        while (top) {
+            int j = g->stack[--top], x = j % gw, y = j / gw;
+            g->hole_cells[count++] = j;
+            su += (float)x;
+            sv += (float)y;
+            for (int k = 0; k < 4; k++) {
+                int xx = x + d4[k][0], yy = y + d4[k][1];
+                if (xx < 0 || yy < 0 || xx >= gw || yy >= gh)
+                    continue;
+                int i = yy * gw + xx;
+                if (g->person[i]) { /* the loop's rim */
+                    zlo = fminf(zlo, g->z[i]);
+                    zhi = fmaxf(zhi, g->z[i]);
+                    continue;
+                }
+                if (g->hole[i] != -1)
+                    continue;
+                g->hole[i] = id;
+                g->stack[top++] = i;
+            }
+        }
+        float area = (float)count * cell_m * cell_m;
+        if (area < 0.002f || area > 0.08f || zhi - zlo > LOOP_DEPTH)
+            continue;
+        float hu = su / (float)count - cu, hv = sv / (float)count - cv;
+        float side = (hu * rx + hv * ry) * cell_m, height = (hu * ux + hv * uy) * cell_m;
+        if (fabsf(side) < 0.06f || fabsf(side) > 0.45f || height < -0.25f || height > 0.45f)
+            continue;
+        float sg = side > 0 ? 1.f : -1.f;
+        /* B: the lowest cell; O: the one farthest to the side (second pass over the hole) */
+        for (int k = 0; k < count; k++) {
+            int i = g->hole_cells[k];
+            float du = (float)(i % gw) - cu, dv = (float)(i / gw) - cv;
+            float h = du * ux + dv * uy, l = sg * (du * rx + dv * ry);
+            if (h < bh) {
+                bh = h;
+                b = i;
+            }
+            if (l > ol) {
+                ol = l;
+                oc = i;
+            }
+        }
+        float fu = (float)(b % gw - oc % gw), fv = (float)(b / gw - oc / gw);
+        float fn = sqrtf(fu * fu + fv * fv);
+        if (fn < 1.f)
+            continue;
+        fu /= fn, fv /= fn;
+        /* walk from B along the forearm for a hand's length, staying on the body */
+        float reach = LOOP_HAND / cell_m;
+        int tip = -1;
+        for (float t = 1.f; t <= reach + 0.5f; t += 1.f) {
+            int x = (int)lroundf((float)(b % gw) + fu * t), y = (int)lroundf((float)(b / gw) + fv * t);
+            if (x < 0 || y < 0 || x >= gw || y >= gh)
+                break;
+            int i = y * gw + x;
+            if (g->person[i])
+                tip = i;
+            else if (tip >= 0)
+                break;
+        }
+        if (tip < 0)
+            continue;
+        drv__extremum *e = &ex[nout++];
+        memset(e, 0, sizeof *e);
+        e->cell = tip;
+        e->loop = side > 0 ? 1 : -1;
+        memcpy(e->tip, g->P + 3 * tip, sizeof e->tip);
+        memcpy(e->anchor, e->tip, sizeof e->anchor);
+        if (nout == max)
+            break;
+    }
+    return nout;
 }

@@ -68,6 +68,17 @@ int main(void)
             ASSERT(sqrtf(dx * dx + dy * dy + dz * dz) > 0.25f);
         }
         ASSERT(fabsf(r.xyz[DRV_DEPTH_LHAND][0] - r.xyz[DRV_DEPTH_RHAND][0]) > 0.2f);
+        /* hands are ends of the arms, not points on the shoulders: at least 0.35 m from the
+         * torso marker (in these frames the arms are held out, raised or forward) - except the
+         * right hand of depth-data-1399145206, which hangs below the view */
+        for (int h = DRV_DEPTH_LHAND; h <= DRV_DEPTH_RHAND; h++) {
+            if (h == DRV_DEPTH_RHAND && !strcmp(frames[i], "depth-data-1399145206"))
+                continue;
+            float dx = r.xyz[h][0] - r.xyz[DRV_DEPTH_TORSO][0], dy = r.xyz[h][1] - r.xyz[DRV_DEPTH_TORSO][1],
+                  dz = r.xyz[h][2] - r.xyz[DRV_DEPTH_TORSO][2];
+            printf("  %s %.2f m from the torso\n", drv_depth_label_names[h], sqrtf(dx * dx + dy * dy + dz * dz));
+            ASSERT(sqrtf(dx * dx + dy * dy + dz * dz) > 0.35f);
+        }
         /* upper bodies only: no feet */
         ASSERT(!r.valid[DRV_DEPTH_LFOOT] && !r.valid[DRV_DEPTH_RFOOT]);
         /* the two frames with a second person behind, right of the first (pixels u 450..520,
