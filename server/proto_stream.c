@@ -120,8 +120,9 @@ static int queue_reply(srv_session *s, const char *txt, size_t len)
 /* The socket's send buffer, sized so that one whole frame (of either encoding) always fits: with
  * Linux's default (16 KB, autotuned from there) nearly every frame write of a mesh was partial,
  * and lws then copies the rest into a fresh heap buffer and sends it from a later POLLOUT, an
- * allocation, a copy and a poll round per frame and client. A few frames' worth also bounds what
- * a slow client can have queued in the kernel (latest-frame-wins applies above that). */
+ * allocation, a copy and a poll round per frame and client. About two frames' worth (Linux
+ * doubles the value) also bounds what a slow client has queued in the kernel on our side
+ * (latest-frame-wins applies above that). */
 static void size_send_buffer(srv_daemon *d, struct lws *wsi)
 {
     srv_gen *g = srv_pipeline_current(d->pipe);

@@ -7,11 +7,17 @@
  * then the largest client count at which every int16 client still gets 60 fps (>= 95 % of the
  * source's frames), searched upwards.
  * Usage: bench_daemon MESHSTEERD MESHSTEER MESHSTEER_LOAD [SECONDS_PER_ROW] [MAX_CLIENTS_TRIED]
+ *                     [fifo]
+ * With "fifo" the daemon and the load client run under SCHED_FIFO priority 10 (both inherit it
+ * from this process; needs CAP_SYS_NICE), as `chrt -f 10` or systemd's CPUSchedulingPolicy=fifo
+ * would run them: on a machine busy with other work, that removes the scheduling tail.
  * Skips (77) without the shared data. Prints a Markdown table. */
 #include "daemon_harness.h"
 #include "test.h"
 
 #include <cjson/cJSON.h>
+#include <errno.h>
+#include <sched.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -125,11 +131,12 @@ static int holds_60(const row *r)
 
 int main(int argc, char **argv)
 {
-    if (argc < 4 || argc > 6) {
+    if (argc < 4 || argc > 7 || (argc == 7 && strcmp(argv[6], "fifo"))) {
         fprintf(stderr, "usage: bench_daemon MESHSTEERD MESHSTEER MESHSTEER_LOAD [SECONDS] "
-                        "[MAX_CLIENTS_TRIED]\n");
+                        "[MAX_CLIENTS_TRIED] [fifo]\n");
         return 2;
     }
+    int fifo = argc == 7;
     signal(SIGPIPE, SIG_IGN);
     const char *meshsteerd = argv[1], *meshsteer = argv[2], *load = argv[3];
     double secs = argc > 4 ? atof(argv[4]) : 5;
@@ -154,6 +161,13 @@ int main(int argc, char **argv)
         fprintf(stderr, "meshsteer train/markers failed; see %s\n", log);
         return 1;
     }
+    if (fifo) { /* after training: only the daemon and the load clients inherit it */
+        struct sched_param sp = {.sched_priority = 10};
+        if (sched_setscheduler(0, SCHED_FIFO, &sp)) {
+            fprintf(stderr, "skip: SCHED_FIFO: %s\n", strerror(errno));
+            return 77;
+        }
+    }
     snprintf(source, sizeof source, "replay:%s?loop=1", csv);
     const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0",
                           "--max-clients", "10000", NULL};
@@ -167,8 +181,9 @@ int main(int argc, char **argv)
         fclose(la);
     }
     printf("horse model (8,431 vertices), replay at 60 Hz, %g s per row after 1.5 s warm-up; "
-           "%ld CPUs, load average %.2f at start\n\n",
-           secs, sysconf(_SC_NPROCESSORS_ONLN), load1);
+           "%ld CPUs, load average %.2f at start; scheduling %s\n\n",
+           secs, sysconf(_SC_NPROCESSORS_ONLN), load1,
+           fifo ? "SCHED_FIFO 10 (daemon and load client)" : "default (SCHED_OTHER)");
     printf("| clients | encoding | received / sent | frames/s per client | e2e p50 | e2e p99 | "
            "capture->send p50 / p99 (frames) | capture->send p50 / p99 (/metrics) | "
            "synth_busy drops |\n|---:|---|---|---|---:|---:|---|---|---:|\n");
