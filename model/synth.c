@@ -15,7 +15,8 @@
  *           where x_i are the other instances' positions of the overlap vertices O, taken into the
  *           instance's local frame. The normal matrix V_O^T V_O + beta diag(1/sigma^2) depends only
  *           on the model and is factored at training; per frame this is two triangular solves.
- *      `iterations` shape steps, each followed by a new alignment.
+ *      `iterations` shape steps, each followed by alignment sweeps from the transforms found
+ *      so far (a new greedy pass would only start further away).
  *   4. blending of shared clusters and overlaps with the precomputed weights of eq. (8) (Sec. 5.3)
  *   5. placement in the markers' body frame (reference edge); for a model trained on another
  *      performer's recording, ground-locked placement (model_internal.h, place_mode).
@@ -348,6 +349,17 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
  * instance is aligned again to all its neighbours (a block coordinate descent on the same
  * objective, which carries marker targets along the limb chains). The alignments between shape
  * steps get one sweep; the last one gets the model's full count. */
+static void relax_all(mdl_synth *s, int relax)
+{
+    const struct mdl_model *m = s->m;
+    for (int sweep = 0; sweep < relax; sweep++)
+        for (int step = 0; step < m->ninst; step++) {
+            int i = m->order[step];
+            align_instance(s, i, m->sov + m->sov_off[i], m->sov_off[i + 1] - m->sov_off[i], 1);
+            inst_emit(s, i, 2, 0);
+        }
+}
+
 static void align_all(mdl_synth *s, int relax)
 {
     const struct mdl_model *m = s->m;
@@ -362,12 +374,7 @@ static void align_all(mdl_synth *s, int relax)
                        m->order_ov_off[step + 1] - m->order_ov_off[step], 0);
         inst_emit(s, i, 1, 0);
     }
-    for (int sweep = 0; sweep < relax; sweep++)
-        for (int step = 0; step < m->ninst; step++) {
-            int i = m->order[step];
-            align_instance(s, i, m->sov + m->sov_off[i], m->sov_off[i + 1] - m->sov_off[i], 1);
-            inst_emit(s, i, 2, 0);
-        }
+    relax_all(s, relax);
 }
 
 /* Sec. 5.2, eq. (7), for every instance with modes. */
@@ -502,7 +509,11 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
     align_all(s, m->iterations > 0 ? 1 : m->relax);
     for (int it = 0; it < m->iterations; it++) {
         optimise_shapes(s);
-        align_all(s, it + 1 < m->iterations ? 1 : m->relax);
+        /* the new shapes replace the old in the accumulated positions; the transforms found so
+         * far are a good start, so sweeps suffice instead of another greedy pass */
+        for (int i = 0; i < m->ninst; i++)
+            inst_emit(s, i, 2, 0);
+        relax_all(s, it + 1 < m->iterations ? 1 : m->relax);
     }
     /* 4-5. blend (eq. 8) and place in the markers' frame: every instance's transform is composed
      * with the placement, then its vertices are added into the output with their blend weights
