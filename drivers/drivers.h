@@ -80,6 +80,17 @@ int drv_source_control(drv_source *s, const char *key, double value, char *err);
 void drv_source_stop(drv_source *s);
 void drv_source_close(drv_source *s); /* NULL is fine */
 
+/* Depth sensors arriving on or leaving USB (depth/kinect_usb.c: libusb hotplug, or bus polling
+ * where libusb has none). fn gets a one-line description such as "kinect1-camera 045e:02ae at
+ * bus 1 address 4", on the thread that calls drv_device_watch_poll. -ENODEV when this machine
+ * has no USB to watch. */
+typedef struct drv_device_watch drv_device_watch;
+typedef void (*drv_device_fn)(void *user, int arrived, const char *what);
+int drv_device_watch_create(drv_device_fn fn, void *user, drv_device_watch **out, char *err);
+int drv_device_watch_poll(drv_device_watch *w, int timeout_ms, char *err);
+int drv_device_watch_hotplug(const drv_device_watch *w); /* 1: events, 0: polling */
+void drv_device_watch_destroy(drv_device_watch *w);
+
 /* The registry of source kinds (source.c); each implementation file adds its ops there. */
 const drv_source_ops *drv_source_find_ops(const char *scheme);
 /* "closed", "open", "streaming", "ended", "lost". */

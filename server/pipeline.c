@@ -36,6 +36,9 @@ struct srv_pipeline {
     char spec[SRV_PATH_LEN];
 
     pthread_t source_thread, synth_thread;
+    pthread_t usb_thread;          /* depth sources: watches USB for the sensor coming and going */
+    drv_device_watch *usb;
+    atomic_int device_hint;        /* a depth sensor arrived: reopen a lost source now */
     int started;
     atomic_int stop;
     atomic_int src_state;
@@ -281,7 +284,8 @@ static void *source_main(void *arg)
         } else if (r == DRV_ELOST) {
             /* the device went away: clients keep the last pose; try to open it again once a
              * second, so that the daemon recovers by itself when the device returns */
-            for (int i = 0; i < 10 && !atomic_load(&p->stop); i++) {
+            for (int i = 0; i < 10 && !atomic_load(&p->stop) && !atomic_exchange(&p->device_hint, 0);
+                 i++) {
                 struct timespec ts = {0, 100 * 1000000L};
                 nanosleep(&ts, NULL);
             }
@@ -408,6 +412,48 @@ static void *synth_main(void *arg)
 
 /* ------------------------------------------------------------------ control of the threads */
 
+/* ------------------------------------------------------------------ the USB watcher (depth) */
+
+static void usb_event(void *user, int arrived, const char *what)
+{
+    srv_pipeline *p = user;
+    srv_log(SRV_LOG_NOTICE, "usb: %s %s", what, arrived ? "arrived" : "left");
+    if (arrived)
+        atomic_store(&p->device_hint, 1);
+}
+
+static void *usb_main(void *arg)
+{
+    srv_pipeline *p = arg;
+    char e[DRV_ERR_LEN];
+    while (!atomic_load(&p->stop))
+        if (drv_device_watch_poll(p->usb, 250, e) < 0) {
+            srv_log(SRV_LOG_WARN, "usb: %s; no longer watching", e);
+            break;
+        }
+    return NULL;
+}
+
+/* Depth cameras (openni2:, v4l2:) get a watcher that logs sensors arriving and leaving and, when
+ * one arrives, lets a lost source reopen at once instead of at its next once-a-second try. */
+static void usb_watch_start(srv_pipeline *p)
+{
+    if (strncmp(p->spec, "openni2", 7) && strncmp(p->spec, "v4l2", 4))
+        return;
+    char e[DRV_ERR_LEN];
+    int r = drv_device_watch_create(usb_event, p, &p->usb, e);
+    if (r) {
+        srv_log(SRV_LOG_INFO, "usb: not watching for sensors: %s", e);
+        return;
+    }
+    srv_log(SRV_LOG_INFO, "usb: watching for depth sensors (%s)",
+            drv_device_watch_hotplug(p->usb) ? "hotplug events" : "polling the bus");
+    if (pthread_create(&p->usb_thread, NULL, usb_main, p) != 0) {
+        drv_device_watch_destroy(p->usb);
+        p->usb = NULL;
+    }
+}
+
 int srv_pipeline_start(srv_pipeline *p, char *err)
 {
     char e[DRV_ERR_LEN];
@@ -427,6 +473,8 @@ int srv_pipeline_start(srv_pipeline *p, char *err)
             pthread_join(p->synth_thread, NULL);
         }
     }
+    if (r == 0)
+        usb_watch_start(p);
     pthread_sigmask(SIG_SETMASK, &old, NULL);
     if (r)
         return srv_err(err, -r, "pipeline: cannot start threads: %s", strerror(r));
@@ -444,6 +492,11 @@ int srv_pipeline_stop(srv_pipeline *p, char *err)
     pthread_mutex_unlock(&p->slot_lock);
     pthread_join(p->source_thread, NULL);
     pthread_join(p->synth_thread, NULL);
+    if (p->usb) {
+        pthread_join(p->usb_thread, NULL);
+        drv_device_watch_destroy(p->usb);
+        p->usb = NULL;
+    }
     p->started = 0;
     drv_source_stop(p->src);
     if (atomic_load(&p->reload_state) != 0) {

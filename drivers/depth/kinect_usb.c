@@ -308,3 +308,55 @@ int drv_kinect_motor_state(drv_kinect_motor *m, drv_kinect_state *st, char *err)
         return r;
     return drv_kinect_state_parse(buf, (size_t)r, st, err);
 }
+
+/* ------------------------------------------------------------------ drivers.h's device watch */
+
+struct drv_device_watch {
+    drv_usb_watch *w;
+    drv_device_fn fn;
+    void *user;
+};
+
+static void device_event(void *user, int arrived, const drv_usb_dev *d)
+{
+    drv_device_watch *dw = user;
+    char what[128];
+    snprintf(what, sizeof what, "%s %04x:%04x at bus %u address %u", d->kind ? d->kind : "device",
+             d->vid, d->pid, d->bus, d->addr);
+    dw->fn(dw->user, arrived, what);
+}
+
+int drv_device_watch_create(drv_device_fn fn, void *user, drv_device_watch **out, char *err)
+{
+    *out = NULL;
+    drv_device_watch *dw = calloc(1, sizeof *dw);
+    if (!dw)
+        return drv__err(err, -ENOMEM, "usb: out of memory");
+    dw->fn = fn;
+    dw->user = user;
+    int r = drv_usb_watch_create(device_event, dw, &dw->w, err);
+    if (r) {
+        free(dw);
+        return r;
+    }
+    *out = dw;
+    return 0;
+}
+
+int drv_device_watch_poll(drv_device_watch *w, int timeout_ms, char *err)
+{
+    return drv_usb_watch_poll(w->w, timeout_ms, err);
+}
+
+int drv_device_watch_hotplug(const drv_device_watch *w)
+{
+    return drv_usb_watch_hotplug(w->w);
+}
+
+void drv_device_watch_destroy(drv_device_watch *w)
+{
+    if (!w)
+        return;
+    drv_usb_watch_destroy(w->w);
+    free(w);
+}
