@@ -1,6 +1,7 @@
 /* bench_depth.c - depth -> markers time per 640x480 frame (median, p99) on the 12 real Kinect
  * frames, one core. Usage: bench_depth [passes] [step]. Run by `meson test --benchmark`. */
 #include "depth/depth.h"
+#include "kinect_frames.h"
 #include "test.h"
 
 #include <time.h>
@@ -28,18 +29,8 @@ int main(int argc, char **argv)
     if (argc > 2)
         o.step = atoi(argv[2]);
     uint16_t *d = malloc((size_t)NF * 640 * 480 * sizeof *d);
-    uint8_t *b = malloc(640 * 480 * 2);
-    for (int i = 0; i < NF; i++) {
-        char rel[256];
-        snprintf(rel, sizeof rel, "depth/skeltrack-kinect-raw16/%s", frames[i]);
-        FILE *f = fopen(test_data(rel), "rb");
-        ASSERT(f);
-        ASSERT_INT_EQ(fread(b, 1, 640 * 480 * 2, f), 640 * 480 * 2);
-        fclose(f);
-        for (int k = 0; k < 640 * 480; k++)
-            d[(size_t)i * 640 * 480 + k] = (uint16_t)(b[2 * k] | b[2 * k + 1] << 8);
-    }
-    free(b);
+    for (int i = 0; i < NF; i++)
+        kinect_frame_load(frames[i], d + (size_t)i * 640 * 480);
     drv_depth_tracker *t;
     ASSERT_OK(drv_depth_tracker_create(&o, &t, err), err);
     int n = passes * NF;

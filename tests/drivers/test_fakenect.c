@@ -3,6 +3,7 @@
  * rejection of malformed index lines and PGMs. */
 #include "depth/fakenect.h"
 #include "model.h"
+#include "kinect_frames.h"
 #include "test.h"
 
 #include <errno.h>
@@ -42,16 +43,8 @@ int main(void)
     snprintf(dir, sizeof dir, "%s/tests/drivers/fakenect-rec-%d", build ? build : ".", (int)getpid());
     drv_fakenect_writer *w;
     ASSERT_OK(drv_fakenect_writer_open(dir, &w, err), err);
-    uint8_t *raw = malloc(640 * 480 * 2);
     for (int k = 0; k < 3; k++) {
-        char rel[256];
-        snprintf(rel, sizeof rel, "depth/skeltrack-kinect-raw16/%s", frames[k]);
-        FILE *f = fopen(test_data(rel), "rb");
-        ASSERT(f);
-        ASSERT_INT_EQ(fread(raw, 1, 640 * 480 * 2, f), 640 * 480 * 2);
-        fclose(f);
-        for (int i = 0; i < 640 * 480; i++)
-            mm[i] = (uint16_t)(raw[2 * i] | raw[2 * i + 1] << 8);
+        kinect_frame_load(frames[k], mm);
         ASSERT_OK(drv_fakenect_writer_depth(w, 100.0 + k / 30.0, (uint32_t)(k * 1000), mm, err), err);
         if (k == 0) {
             char path[4300];
@@ -110,7 +103,6 @@ int main(void)
     ASSERT(drv_fakenect_ops.open(&s2, arg, err) == -EINVAL);
     snprintf(arg, sizeof arg, "%s", test_src("tests/data"));
     ASSERT(drv_fakenect_ops.open(&s2, arg, err) == -ENOENT); /* no INDEX.txt there */
-    free(raw);
     free(mm);
     free(back);
     return 0;

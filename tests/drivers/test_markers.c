@@ -3,6 +3,7 @@
  * hands are found. Overlays go to <build>/tests/drivers/markers-<frame>.png. */
 #include "depth/depth.h"
 #include "overlay.h"
+#include "kinect_frames.h"
 #include "test.h"
 
 static const char *frames[] = {"depth-data-1028894671", "depth-data-1038901490",
@@ -11,20 +12,6 @@ static const char *frames[] = {"depth-data-1028894671", "depth-data-1038901490",
                                "depth-data-1070905432", "depth-data-1078881076",
                                "depth-data-1166565565", "depth-data-1234568668",
                                "depth-data-1399145206", "depth-data-82823944"};
-
-static int load(const char *path, uint16_t *d)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return -1;
-    uint8_t *b = malloc(640 * 480 * 2);
-    size_t n = fread(b, 1, 640 * 480 * 2, f);
-    fclose(f);
-    for (int i = 0; i < 640 * 480; i++)
-        d[i] = (uint16_t)(b[2 * i] | b[2 * i + 1] << 8);
-    free(b);
-    return n == 640 * 480 * 2 ? 0 : -1;
-}
 
 int main(void)
 {
@@ -36,9 +23,7 @@ int main(void)
     uint16_t *d = malloc(640 * 480 * sizeof *d);
     const char *build = getenv("MESHSTEER_BUILD");
     for (size_t i = 0; i < sizeof frames / sizeof *frames; i++) {
-        char rel[256];
-        snprintf(rel, sizeof rel, "depth/skeltrack-kinect-raw16/%s", frames[i]);
-        ASSERT_INT_EQ(load(test_data(rel), d), 0);
+        kinect_frame_load(frames[i], d);
         drv_depth_tracker_reset(t); /* independent snapshots */
         drv_depth_result r;
         ASSERT_OK(drv_depth_tracker_process(t, d, 0, &r), "");

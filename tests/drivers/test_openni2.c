@@ -19,6 +19,7 @@
 #include "depth/oni_c.h"
 #include "depth/openni2.h"
 #include "model.h"
+#include "kinect_frames.h"
 #include "test.h"
 
 #include <dlfcn.h>
@@ -250,17 +251,9 @@ int main(int argc, char **argv)
     drv_fakenect_writer *w;
     ASSERT_OK(drv_fakenect_writer_open(dir, &w, err), err);
     uint16_t *mm = malloc(640 * 480 * sizeof *mm);
-    uint8_t *raw = malloc(640 * 480 * 2);
     const char *frames[] = {"depth-data-1045879925", "depth-data-1051883281"};
     for (int k = 0; k < 2; k++) {
-        char rel[256];
-        snprintf(rel, sizeof rel, "depth/skeltrack-kinect-raw16/%s", frames[k]);
-        FILE *f = fopen(test_data(rel), "rb");
-        ASSERT(f);
-        ASSERT_INT_EQ(fread(raw, 1, 640 * 480 * 2, f), 640 * 480 * 2);
-        fclose(f);
-        for (int i = 0; i < 640 * 480; i++)
-            mm[i] = (uint16_t)(raw[2 * i] | raw[2 * i + 1] << 8);
+        kinect_frame_load(frames[k], mm);
         ASSERT_OK(drv_fakenect_writer_depth(w, 10.0 + k / 30.0, (uint32_t)k, mm, err), err);
     }
     ASSERT_OK(drv_fakenect_writer_close(w, err), err);
@@ -365,7 +358,6 @@ int main(int argc, char **argv)
     }
     rmdir(dir);
     free(mm);
-    free(raw);
     printf("ok\n");
     return 0;
 }

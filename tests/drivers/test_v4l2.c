@@ -4,6 +4,7 @@
  * from the fake device through depth -> markers (same markers as the direct path), timeouts, and
  * device loss (ENODEV) -> DRV_ELOST. */
 #include "depth/v4l2.h"
+#include "kinect_frames.h"
 #include "test.h"
 
 #include <errno.h>
@@ -233,20 +234,6 @@ static void pack_y10b(const uint16_t *v, size_t n, uint8_t *out)
                 out[bit / 8] |= (uint8_t)(0x80 >> (bit % 8));
 }
 
-static int load_kinect(const char *path, uint16_t *d)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return -1;
-    uint8_t *b = malloc(640 * 480 * 2);
-    size_t n = fread(b, 1, 640 * 480 * 2, f);
-    fclose(f);
-    for (int i = 0; i < 640 * 480; i++)
-        d[i] = (uint16_t)(b[2 * i] | b[2 * i + 1] << 8);
-    free(b);
-    return n == 640 * 480 * 2 ? 0 : -1;
-}
-
 int main(void)
 {
     char err[DRV_ERR_LEN] = "";
@@ -381,7 +368,7 @@ int main(void)
     uint16_t *mm = malloc(640 * 480 * sizeof *mm), *got = malloc(640 * 480 * sizeof *got);
     uint16_t *d10 = malloc(640 * 480 * sizeof *d10), *expect = malloc(640 * 480 * sizeof *expect);
     uint8_t *payload = calloc(1, 1280 * 480);
-    ASSERT_INT_EQ(load_kinect(test_data("depth/skeltrack-kinect-raw16/depth-data-1045879925"), mm), 0);
+    kinect_frame_load("depth-data-1045879925", mm);
     for (int i = 0; i < 640 * 480; i++) {
         /* the camera's 10-bit disparity of this depth, and what it decodes to */
         long d = mm[i] ? lround(drv_kinect1_m_to_disparity(mm[i] * 0.001) / 2) : 1023;
