@@ -66,6 +66,9 @@ struct drv__extremum {
                          camera's +X / -X side (drv__segment_arm_loops) */
     float path_hmax;  /* the highest point (metres above the source, along `up`) of its shortest
                          path from the source: an arm's path climbs to the shoulder, a leg's not */
+    int hidden_end;   /* the limb ends at an occluding edge: a nearer surface lies next to its tip,
+                         so the limb goes on behind it (a hand behind the hip) */
+    float hidden[3];  /* then: the tip carried on behind the edge along the limb's direction */
 };
 
 typedef struct drv__geodesic {

@@ -8,7 +8,8 @@
  * normal when a floor was found, else the camera's +Y; right = the camera's +X made orthogonal to
  * up) -> per-label filter. A label not found keeps its last output for hold_frames frames (reported
  * invalid) so that it can be re-associated; after that its filter restarts. The torso marker is the
- * person's centroid. */
+ * person's centroid. A hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is
+ * placed at the estimated hidden end. */
 #include "depth_internal.h"
 
 #include <errno.h>
@@ -216,6 +217,8 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 r->extremum_label[label[l]] = l;
             float p[3];
             memcpy(p, t->ex[label[l]].tip, sizeof p);
+            if ((l == DRV_DEPTH_LHAND || l == DRV_DEPTH_RHAND) && t->ex[label[l]].hidden_end)
+                memcpy(p, t->ex[label[l]].hidden, sizeof p);
             if (l == DRV_DEPTH_HEAD) {
                 float n = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
                 for (int a = 0; a < 3 && n > 0; a++)

@@ -81,4 +81,20 @@ if [ -d "$data/meshes/horse-gallop" ]; then
     expect_status 0 "$ms" render --mesh "$dir/hop.pc2" --rest "$data/meshes/horse-gallop/0001.obj" \
         --frames 0:1102:92 -o "${MESHSTEER_BUILD:-$dir}/hop-contact-sheet.png"
 fi
+
+# issue 4's acceptance: markers from the test camera's depth of the samba dancer (2.5 m, facing)
+if [ -f "$data/meshes/samba/samba.pc2" ]; then
+    expect_status 0 "$ms" depth-eval --mesh "$data/meshes/samba/samba.pc2" \
+        --rest "$data/meshes/samba/rest.obj" --rig "$src/rigs/samba-depth.json" --json
+    cp "$dir/out" "$dir/depth.json"
+    cat "$dir/depth.json"
+    [ "$(json_num "$dir/depth.json" frames)" = "175" ] || fail "depth-eval did not score 175 frames"
+    grep -o '"within_10cm": {[^}]*}' "$dir/depth.json" >"$dir/within.json" ||
+        fail "depth-eval printed no within_10cm"
+    for k in head hand foot; do
+        v=$(json_num "$dir/within.json" $k)
+        awk -v v="$v" 'BEGIN { exit !(v ~ /^[0-9.]+$/ && v + 0 >= 0.9) }' ||
+            fail "depth-eval: $k within 10 cm is '$v', below 0.9"
+    done
+fi
 echo "cli: ok"
