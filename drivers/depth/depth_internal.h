@@ -75,15 +75,28 @@ typedef struct drv__geodesic {
     int n;
     float *dist;   /* n */
     int *parent;   /* n */
-    int *heap;     /* n: binary min-heap of cells */
-    int *pos;      /* n: position of a cell in the heap, -1 = not queued */
+    /* the queue: Dial's buckets of width q (geodesic.c), a ring of nb lists linked through
+       next/prev; bucket[i] is the first cell of ring slot i or -1 */
+    int *next, *prev; /* n */
+    int *slot;        /* n: a queued cell's ring slot, -1 = not queued */
+    int *bucket;      /* nb */
+    int nb;           /* a power of two */
+    long cur;         /* the bucket (absolute: floor(dist / q)) being emptied */
+    float iq;         /* 1 / q */
+    float *w;         /* n x 8: this frame's edge weights to the 8 neighbours (NBR order of
+                         geodesic.c), FLT_MAX = no edge */
+    float *bw;        /* n x 2: weights of the bridges up and down the column (FLT_MAX = none), */
+    int *bt;          /*        and the cells they reach */
     float *h;      /* n: height of a person cell above the source along `up` */
     float *hmax;   /* n: highest h along the cell's shortest path from the source (first pass) */
-    int hn;
+    int hn;        /* cells queued */
 } drv__geodesic;
 
-int drv__geodesic_init(drv__geodesic *ge, int n, char *err);
+int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *err);
 void drv__geodesic_fini(drv__geodesic *ge);
+/* The bucket width of the geodesic queue: below the shortest edge between cells nearer than
+ * z_near (metres). */
+float drv__geodesic_quantum(const drv_depth_opts *o, float z_near);
 /* Accumulative geodesic extrema on the person's cells of g, starting from `source` (a person cell).
  * Returns the number found (<= max), in the order found. */
 int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,

@@ -41,17 +41,36 @@
 #include <stdlib.h>
 #include <string.h>
 
-int drv__geodesic_init(drv__geodesic *ge, int n, char *err)
+/* Bridges across an occluder span at most this much of the image (metres at the person). */
+#define BRIDGE 0.15f
+
+int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *err)
 {
     memset(ge, 0, sizeof *ge);
     ge->n = n;
+    /* The ring must hold every distance between the bucket being emptied and the farthest cell an
+     * edge can reach from it: the longest edge (a cell diagonal at z_max, a depth step below
+     * attach_jump with its jump_penalty, or a bridge) over the narrowest bucket (z_min). */
+    double cell = o->step * o->z_max / fmin(o->k.fx, o->k.fy);
+    double longest = 2.0 * cell + fmax(o->attach_jump, o->seg_jump) + o->jump_penalty + BRIDGE +
+                     o->max_jump;
+    double span = longest / drv__geodesic_quantum(o, o->z_min) + 2.0;
+    ge->nb = 1;
+    while (ge->nb < span && ge->nb < (1 << 24))
+        ge->nb <<= 1;
     ge->dist = malloc((size_t)n * sizeof *ge->dist);
     ge->parent = malloc((size_t)n * sizeof *ge->parent);
-    ge->heap = malloc((size_t)n * sizeof *ge->heap);
-    ge->pos = malloc((size_t)n * sizeof *ge->pos);
+    ge->next = malloc((size_t)n * sizeof *ge->next);
+    ge->prev = malloc((size_t)n * sizeof *ge->prev);
+    ge->slot = malloc((size_t)n * sizeof *ge->slot);
+    ge->bucket = malloc((size_t)ge->nb * sizeof *ge->bucket);
+    ge->w = malloc((size_t)n * 8 * sizeof *ge->w);
+    ge->bw = malloc((size_t)n * 2 * sizeof *ge->bw);
+    ge->bt = malloc((size_t)n * 2 * sizeof *ge->bt);
     ge->h = malloc((size_t)n * sizeof *ge->h);
     ge->hmax = malloc((size_t)n * sizeof *ge->hmax);
-    if (!ge->dist || !ge->parent || !ge->heap || !ge->pos || !ge->h || !ge->hmax) {
+    if (!ge->dist || !ge->parent || !ge->next || !ge->prev || !ge->slot || !ge->bucket || !ge->w ||
+        !ge->bw || !ge->bt || !ge->h || !ge->hmax) {
         drv__geodesic_fini(ge);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for the geodesic graph (%d cells)", n);
@@ -59,9 +78,11 @@ int drv__geodesic_init(drv__geodesic *ge, int n, char *err)
     }
     for (int i = 0; i < n; i++) {
         ge->dist[i] = FLT_MAX;
-        ge->pos[i] = -1;
+        ge->slot[i] = -1;
         ge->parent[i] = -1;
     }
+    for (int i = 0; i < ge->nb; i++)
+        ge->bucket[i] = -1;
     return 0;
 }
 
@@ -69,151 +90,180 @@ void drv__geodesic_fini(drv__geodesic *ge)
 {
     free(ge->dist);
     free(ge->parent);
-    free(ge->heap);
-    free(ge->pos);
+    free(ge->next);
+    free(ge->prev);
+    free(ge->slot);
+    free(ge->bucket);
+    free(ge->w);
+    free(ge->bw);
+    free(ge->bt);
     free(ge->h);
     free(ge->hmax);
     memset(ge, 0, sizeof *ge);
 }
 
-/* ---- indexed binary min-heap on ge->dist */
+/* ---- Dial's bucket queue [Dial 1969, "Algorithm 360: shortest-path forest with topological
+ * ordering"]: cells are kept in buckets of width q by floor(dist / q), and popped bucket after
+ * bucket. When q is below the shortest edge, no cell can improve another of its own bucket, so
+ * the order inside a bucket does not matter and the distances are exactly Dijkstra's - at O(1)
+ * per queue operation instead of a heap's O(log n). */
 
-static void heap_up(drv__geodesic *ge, int i)
+float drv__geodesic_quantum(const drv_depth_opts *o, float z_near)
 {
-    int c = ge->heap[i];
-    float d = ge->dist[c];
-    while (i > 0) {
-        int p = (i - 1) / 2;
-        if (ge->dist[ge->heap[p]] <= d)
-            break;
-        ge->heap[i] = ge->heap[p];
-        ge->pos[ge->heap[i]] = i;
-        i = p;
-    }
-    ge->heap[i] = c;
-    ge->pos[c] = i;
+    /* Neighbouring cells' sample pixels lie at least step - (b - a) pixels apart (the probe
+     * offsets a, b of segment.c); half of that at the nearest depth is below any edge. */
+    const int s = o->step, a = s / 4, b = (3 * s) / 4;
+    return 0.5f * (float)(s - (b - a)) * z_near / (float)fmax(o->k.fx, o->k.fy);
 }
 
-static void heap_down(drv__geodesic *ge, int i)
+static void queue_remove(drv__geodesic *ge, int c)
 {
-    int c = ge->heap[i];
-    float d = ge->dist[c];
-    for (;;) {
-        int l = 2 * i + 1, m = i;
-        float dm = d;
-        if (l < ge->hn && ge->dist[ge->heap[l]] < dm) {
-            m = l;
-            dm = ge->dist[ge->heap[l]];
-        }
-        if (l + 1 < ge->hn && ge->dist[ge->heap[l + 1]] < dm)
-            m = l + 1;
-        if (m == i)
-            break;
-        ge->heap[i] = ge->heap[m];
-        ge->pos[ge->heap[i]] = i;
-        i = m;
-    }
-    ge->heap[i] = c;
-    ge->pos[c] = i;
+    int p = ge->prev[c], nx = ge->next[c];
+    if (p >= 0)
+        ge->next[p] = nx;
+    else
+        ge->bucket[ge->slot[c]] = nx;
+    if (nx >= 0)
+        ge->prev[nx] = p;
+    ge->slot[c] = -1;
+    ge->hn--;
 }
 
-static void heap_push(drv__geodesic *ge, int c)
+/* Queues c at its (new, smaller) distance. */
+static void queue_push(drv__geodesic *ge, int c)
 {
-    if (ge->pos[c] >= 0) {
-        heap_up(ge, ge->pos[c]);
-        return;
-    }
-    ge->heap[ge->hn] = c;
-    ge->pos[c] = ge->hn++;
-    heap_up(ge, ge->pos[c]);
+    if (ge->slot[c] >= 0)
+        queue_remove(ge, c);
+    long k = (long)(ge->dist[c] * ge->iq);
+    if (ge->hn == 0) /* a new source: the queue starts over */
+        ge->cur = k;
+    if (k - ge->cur >= ge->nb) /* cannot happen with the ring sized by init; keeps it safe */
+        k = ge->cur + ge->nb - 1;
+    int sl = (int)(k & (ge->nb - 1));
+    ge->slot[c] = sl;
+    ge->prev[c] = -1;
+    ge->next[c] = ge->bucket[sl];
+    if (ge->bucket[sl] >= 0)
+        ge->prev[ge->bucket[sl]] = c;
+    ge->bucket[sl] = c;
+    ge->hn++;
 }
 
-static int heap_pop(drv__geodesic *ge)
+static int queue_pop(drv__geodesic *ge)
 {
-    int c = ge->heap[0];
-    ge->pos[c] = -1;
-    if (--ge->hn > 0) {
-        ge->heap[0] = ge->heap[ge->hn];
-        ge->pos[ge->heap[0]] = 0;
-        heap_down(ge, 0);
-    }
+    int sl;
+    while (ge->bucket[sl = (int)(ge->cur & (ge->nb - 1))] < 0)
+        ge->cur++;
+    int c = ge->bucket[sl];
+    queue_remove(ge, c);
     return c;
 }
 
-/* Bridges across an occluder span at most this much of the image (metres at the person). */
-#define BRIDGE 0.15f
+/* The 8 neighbours, in an order where k and 7 - k are opposite. */
+static const int NBR[8][2] = {{-1, -1}, {0, -1}, {1, -1}, {-1, 0}, {1, 0}, {-1, 1}, {0, 1}, {1, 1}};
 
-/* Dijkstra from the queued cells; only improvements are expanded. With tip != NULL, sums the
- * positions of cells that end up within `radius` (they are reached from the new source). */
-static void run(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o, float radius,
-                double *tip, int *ntip, int first)
+/* This frame's graph: the weight of every edge between the person's cells (the rules of the
+ * header), computed once for the ten Dijkstra runs; each edge is measured from one end and
+ * mirrored to the other. Then the bridges of each cell up and down its column. */
+static void edges(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o)
 {
     const int gw = g->gw, gh = g->gh;
     const int bridge = (int)(BRIDGE / (g->mean_z * (float)g->step / (float)o->k.fx));
-    while (ge->hn) {
-        int u = heap_pop(ge);
-        float du = ge->dist[u];
+    for (int k = 0; k < g->ncells; k++) {
+        int c = g->cells[k];
+        for (int d = 0; d < 8; d++)
+            ge->w[8 * c + d] = FLT_MAX;
+    }
+    for (int k = 0; k < g->ncells; k++) {
+        int u = g->cells[k], x = u % gw, y = u / gw;
         const float *pu = g->P + 3 * u;
-        float zu = g->z[u];
+        const float zu = g->z[u];
+        for (int d = 4; d < 8; d++) { /* the forward half; 7 - d is the way back */
+            int xx = x + NBR[d][0], yy = y + NBR[d][1];
+            if (xx < 0 || yy < 0 || xx >= gw || yy >= gh)
+                continue;
+            int v = yy * gw + xx;
+            if (!g->person[v])
+                continue;
+            float jz = fabsf(g->z[v] - zu);
+            if (jz >= o->seg_jump && (g->comp[v] == g->comp[u] || jz >= o->attach_jump))
+                continue;
+            const float *pv = g->P + 3 * v;
+            float ex = pv[0] - pu[0], ey = pv[1] - pu[1], ez = pv[2] - pu[2];
+            float wt = sqrtf(ex * ex + ey * ey + ez * ez) + (jz >= o->max_jump ? o->jump_penalty : 0.f);
+            ge->w[8 * u + d] = wt;
+            ge->w[8 * v + 7 - d] = wt;
+        }
+    }
+    for (int k = 0; k < g->ncells; k++) {
+        int u = g->cells[k], x = u % gw, y = u / gw;
+        const float *pu = g->P + 3 * u;
+        const float zu = g->z[u];
+        for (int side = 0; side < 2; side++) {
+            const int dy = side ? 1 : -1, d = side ? 6 : 1;
+            ge->bw[2 * u + side] = FLT_MAX;
+            ge->bt[2 * u + side] = -1;
+            if (bridge < 2 || ge->w[8 * u + d] == FLT_MAX || !(g->z[u + dy * gw] < zu - o->max_jump))
+                continue;
+            for (int t = 2; t <= bridge; t++) { /* across the occluder to the first cell at zu */
+                int by = y + t * dy;
+                if (by < 0 || by >= gh)
+                    break;
+                int wc = by * gw + x;
+                if (!g->person[wc])
+                    break;
+                if (g->z[wc] < zu - o->max_jump)
+                    continue;
+                if (fabsf(g->z[wc] - zu) < o->max_jump) {
+                    const float *pw = g->P + 3 * wc;
+                    float fx = pw[0] - pu[0], fy = pw[1] - pu[1], fz = pw[2] - pu[2];
+                    ge->bw[2 * u + side] = sqrtf(fx * fx + fy * fy + fz * fz);
+                    ge->bt[2 * u + side] = wc;
+                }
+                break;
+            }
+        }
+    }
+}
+
+/* Relaxes the edge u -> v of weight wt. */
+static inline void relax(drv__geodesic *ge, int u, int v, float nd, int first)
+{
+    if (nd < ge->dist[v]) {
+        ge->dist[v] = nd;
+        ge->parent[v] = u;
+        if (first) {
+            float hu = ge->hmax[u], hv = ge->h[v];
+            ge->hmax[v] = hu > hv ? hu : hv;
+        }
+        queue_push(ge, v);
+    }
+}
+
+/* Dijkstra from the queued cells; only improvements are expanded. With tip != NULL, sums the
+ * positions of cells that end up within `radius` (they are reached from the new source). */
+static void run(drv__geodesic *ge, const drv__grid *g, float radius, double *tip, int *ntip,
+                int first)
+{
+    const int gw = g->gw;
+    const int off[8] = {-gw - 1, -gw, -gw + 1, -1, 1, gw - 1, gw, gw + 1};
+    while (ge->hn) {
+        int u = queue_pop(ge);
+        float du = ge->dist[u];
         if (tip && du < radius) {
+            const float *pu = g->P + 3 * u;
             tip[0] += pu[0];
             tip[1] += pu[1];
             tip[2] += pu[2];
             (*ntip)++;
         }
-        int x = u % gw, y = u / gw;
-        for (int dy = -1; dy <= 1; dy++) {
-            int yy = y + dy;
-            if (yy < 0 || yy >= gh)
-                continue;
-            for (int dx = -1; dx <= 1; dx++) {
-                int xx = x + dx;
-                if (xx < 0 || xx >= gw || (dx == 0 && dy == 0))
-                    continue;
-                int v = yy * gw + xx;
-                if (!g->person[v])
-                    continue;
-                float jz = fabsf(g->z[v] - zu);
-                if (jz >= o->seg_jump && (g->comp[v] == g->comp[u] || jz >= o->attach_jump))
-                    continue;
-                const float *pv = g->P + 3 * v;
-                float ex = pv[0] - pu[0], ey = pv[1] - pu[1], ez = pv[2] - pu[2];
-                float nd = du + sqrtf(ex * ex + ey * ey + ez * ez) +
-                           (jz >= o->max_jump ? o->jump_penalty : 0.f);
-                if (nd < ge->dist[v]) {
-                    ge->dist[v] = nd;
-                    ge->parent[v] = u;
-                    if (first)
-                        ge->hmax[v] = fmaxf(ge->hmax[u], ge->h[v]);
-                    heap_push(ge, v);
-                }
-                if (bridge > 1 && dx == 0 && g->z[v] < zu - o->max_jump) { /* look across it */
-                    for (int t = 2; t <= bridge; t++) {
-                        int bx = x + t * dx, by = y + t * dy;
-                        if (bx < 0 || by < 0 || bx >= gw || by >= gh)
-                            break;
-                        int w = by * gw + bx;
-                        if (!g->person[w])
-                            break;
-                        if (g->z[w] < zu - o->max_jump)
-                            continue;
-                        if (fabsf(g->z[w] - zu) < o->max_jump) {
-                            const float *pw = g->P + 3 * w;
-                            float fx = pw[0] - pu[0], fy = pw[1] - pu[1], fz = pw[2] - pu[2];
-                            float bd = du + sqrtf(fx * fx + fy * fy + fz * fz);
-                            if (bd < ge->dist[w]) {
-                                ge->dist[w] = bd;
-                                ge->parent[w] = u;
-                                if (first)
-                                    ge->hmax[w] = fmaxf(ge->hmax[u], ge->h[w]);
-                                heap_push(ge, w);
-                            }
-                        }
-                        break;
-                    }
-                }
-            }
-        }
+        const float *wu = ge->w + 8 * u;
+        for (int d = 0; d < 8; d++)
+            if (wu[d] != FLT_MAX) /* no edge leaves the grid: off[d] stays inside */
+                relax(ge, u, u + off[d], du + wu[d], first);
+        for (int side = 0; side < 2; side++)
+            if (ge->bt[2 * u + side] >= 0)
+                relax(ge, u, ge->bt[2 * u + side], du + ge->bw[2 * u + side], first);
     }
 }
 
@@ -255,19 +305,22 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
     if (source < 0 || source >= g->n || !g->person[source])
         return 0;
     const float *ps = g->P + 3 * source;
+    float z_near = FLT_MAX;
     for (int k = 0; k < g->ncells; k++) {
         int c = g->cells[k];
         const float *p = g->P + 3 * c;
+        z_near = fminf(z_near, g->z[c]);
         ge->dist[c] = FLT_MAX;
         ge->parent[c] = -1;
-        ge->pos[c] = -1;
+        ge->slot[c] = -1;
         ge->h[c] = (p[0] - ps[0]) * up[0] + (p[1] - ps[1]) * up[1] + (p[2] - ps[2]) * up[2];
     }
-    ge->hn = 0;
+    ge->iq = 1.f / drv__geodesic_quantum(o, fmaxf(z_near, o->z_min));
     ge->dist[source] = 0;
     ge->hmax[source] = 0;
-    heap_push(ge, source);
-    run(ge, g, o, 0, NULL, NULL, 1);
+    queue_push(ge, source);
+    edges(ge, g, o);
+    run(ge, g, 0, NULL, NULL, 1);
     int nex = 0;
     while (nex < max) {
         int e = -1;
@@ -301,8 +354,8 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         int ntip = 0;
         ge->dist[e] = 0;
         ge->parent[e] = -1;
-        heap_push(ge, e);
-        run(ge, g, o, o->tip_radius, tip, &ntip, 0);
+        queue_push(ge, e);
+        run(ge, g, o->tip_radius, tip, &ntip, 0);
         for (int i = 0; i < 3; i++)
             x->tip[i] = ntip ? (float)(tip[i] / ntip) : g->P[3 * e + i];
     }

@@ -86,7 +86,7 @@ int drv_depth_tracker_create(const drv_depth_opts *o, drv_depth_tracker **out, c
     t->o = *o;
     int r = drv__grid_init(&t->g, o, err);
     if (r == 0)
-        r = drv__geodesic_init(&t->ge, t->g.n, err);
+        r = drv__geodesic_init(&t->ge, o, t->g.n, err);
     if (r) {
         drv_depth_tracker_destroy(t);
         return r;
