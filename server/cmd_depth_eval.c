@@ -42,7 +42,8 @@ static void help(void)
            "  --distance M     metres from the camera to the person (default 2.5)\n"
            "  --yaw DEG        turn the person away from facing the camera (default 0)\n"
            "  --fps F          frame rate when the file has none (default 30)\n"
-           "  --step N         tracker grid cell size in pixels (default 4)\n"
+           "  --step N         a fixed tracker grid of N-pixel cells (default: sized by the\n"
+           "                   person's distance, 4 pixels at 2.5 m)\n"
            "  --no-smooth      score the unfiltered markers\n"
            "  --travel         keep the performer's travel towards/away from the camera (default:\n"
            "                   each frame's centroid is held at --distance; sideways travel is kept)\n"
@@ -88,7 +89,7 @@ int cmd_depth_eval(int argc, char **argv)
 {
     const char *mesh = NULL, *rest = NULL, *rigp = NULL, *frames = ":";
     double distance = 2.5, yaw_deg = 0, fps_opt = 30;
-    int json = 0, smooth = 1, step = 4, travel = 0, per_frame = 0;
+    int json = 0, smooth = 1, step = 0, travel = 0, per_frame = 0;
     const char *dump = NULL;
     FILE *dumpf = NULL;
     for (int i = 1; i < argc; i++) {
@@ -143,7 +144,7 @@ int cmd_depth_eval(int argc, char **argv)
         return cli_usage_error(CMD, "--distance %g: the Kinect sees 0.8 .. 4.5 m", distance);
     if (!(fps_opt > 0 && fps_opt <= 1000))
         return cli_usage_error(CMD, "--fps %g: must be in (0, 1000]", fps_opt);
-    if (step < 1 || step > 16)
+    if (step && (step < 1 || step > 16))
         return cli_usage_error(CMD, "--step %d: must be 1 .. 16", step);
 
     char err[MDL_ERR_LEN] = "";
@@ -227,7 +228,10 @@ int cmd_depth_eval(int argc, char **argv)
     ro.cam_pitch = 2.0f;
     drv_depth_opts to;
     drv_depth_opts_default(&to);
-    to.step = step;
+    if (step) { /* a fixed grid */
+        to.step = step;
+        to.cell_m = 0;
+    }
     to.smooth = smooth;
     char derr[DRV_ERR_LEN] = "";
     if ((r = drv_render_create(&ro, nv, &ren, derr)) ||

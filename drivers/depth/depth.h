@@ -64,7 +64,13 @@ extern const char *const drv_depth_label_names[DRV_DEPTH_NLABELS];
 
 typedef struct drv_depth_opts {
     drv_intrinsics k;      /* of the input images */
-    int step;              /* grid cell size in pixels (4: 160x120 cells at 640x480) */
+    int step;              /* grid cell size in pixels (4: 160x120 cells at 640x480); with
+                              cell_m > 0, the size of the first frame's cells */
+    float cell_m;          /* > 0: each frame's cell size is chosen so that a cell spans about
+                              this many metres at the person (its depth in the previous frame),
+                              within [step_min, step_max] pixels: the graph keeps about the same
+                              number of cells near and far. 0: always `step` */
+    int step_min, step_max;
     float z_min, z_max;    /* depth gate, metres */
     float max_jump;        /* geodesic graph: neighbouring cells whose depths differ by less
                               than this (metres) are joined by their 3D distance ... */

@@ -11,7 +11,8 @@
 typedef struct drv__extremum drv__extremum;
 
 typedef struct drv__grid {
-    int gw, gh, n, step;
+    int gw, gh, n, step; /* this frame's grid: step x step pixel cells, gw x gh of them */
+    int nmax;            /* cells allocated: the grid at the smallest step */
     float *P;        /* n x 3: the cell's sample point, Y-up camera frame, metres */
     float *z;        /* n: depth along the axis (metres); 0 = no reading or gated out */
     uint16_t *px;    /* n x 2: pixel (u, v) the sample came from */
@@ -31,6 +32,10 @@ typedef struct drv__grid {
 
 int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err);
 void drv__grid_fini(drv__grid *g);
+/* The step used when cell_m > 0 for a person at depth z (metres) while `step` is in use. */
+int drv__grid_choose_step(const drv_depth_opts *o, int step, float z);
+/* Makes g a grid of step x step cells (within the allocated size). */
+void drv__grid_set_step(drv__grid *g, const drv_depth_opts *o, int step);
 
 /* Samples the depth image into the grid: per cell the nearest valid reading among four probes,
  * gated to [z_min, z_max]. */
@@ -96,7 +101,7 @@ int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *
 void drv__geodesic_fini(drv__geodesic *ge);
 /* The bucket width of the geodesic queue: below the shortest edge between cells nearer than
  * z_near (metres). */
-float drv__geodesic_quantum(const drv_depth_opts *o, float z_near);
+float drv__geodesic_quantum(const drv_depth_opts *o, int step, float z_near);
 /* Accumulative geodesic extrema on the person's cells of g, starting from `source` (a person cell).
  * Returns the number found (<= max), in the order found. */
 int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,

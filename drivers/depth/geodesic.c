@@ -51,10 +51,11 @@ int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *
     /* The ring must hold every distance between the bucket being emptied and the farthest cell an
      * edge can reach from it: the longest edge (a cell diagonal at z_max, a depth step below
      * attach_jump with its jump_penalty, or a bridge) over the narrowest bucket (z_min). */
-    double cell = o->step * o->z_max / fmin(o->k.fx, o->k.fy);
+    const int smin = o->cell_m > 0 ? o->step_min : o->step, smax = o->cell_m > 0 ? o->step_max : o->step;
+    double cell = smax * o->z_max / fmin(o->k.fx, o->k.fy);
     double longest = 2.0 * cell + fmax(o->attach_jump, o->seg_jump) + o->jump_penalty + BRIDGE +
                      o->max_jump;
-    double span = longest / drv__geodesic_quantum(o, o->z_min) + 2.0;
+    double span = longest / drv__geodesic_quantum(o, smin, o->z_min) + 2.0;
     ge->nb = 1;
     while (ge->nb < span && ge->nb < (1 << 24))
         ge->nb <<= 1;
@@ -108,11 +109,11 @@ void drv__geodesic_fini(drv__geodesic *ge)
  * the order inside a bucket does not matter and the distances are exactly Dijkstra's - at O(1)
  * per queue operation instead of a heap's O(log n). */
 
-float drv__geodesic_quantum(const drv_depth_opts *o, float z_near)
+float drv__geodesic_quantum(const drv_depth_opts *o, int step, float z_near)
 {
     /* Neighbouring cells' sample pixels lie at least step - (b - a) pixels apart (the probe
      * offsets a, b of segment.c); half of that at the nearest depth is below any edge. */
-    const int s = o->step, a = s / 4, b = (3 * s) / 4;
+    const int s = step, a = s / 4, b = (3 * s) / 4;
     return 0.5f * (float)(s - (b - a)) * z_near / (float)fmax(o->k.fx, o->k.fy);
 }
 
@@ -315,7 +316,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         ge->slot[c] = -1;
         ge->h[c] = (p[0] - ps[0]) * up[0] + (p[1] - ps[1]) * up[1] + (p[2] - ps[2]) * up[2];
     }
-    ge->iq = 1.f / drv__geodesic_quantum(o, fmaxf(z_near, o->z_min));
+    ge->iq = 1.f / drv__geodesic_quantum(o, g->step, fmaxf(z_near, o->z_min));
     ge->dist[source] = 0;
     ge->hmax[source] = 0;
     queue_push(ge, source);

@@ -31,6 +31,7 @@ struct drv_depth_tracker {
     drv_one_euro f[DRV_DEPTH_NLABELS][3];
     float out[DRV_DEPTH_NLABELS][3]; /* last output */
     int missed[DRV_DEPTH_NLABELS];   /* frames since last found; > hold_frames = unknown */
+    float person_z;                  /* the person's mean depth in the last frame that had one */
 };
 
 void drv_depth_opts_default(drv_depth_opts *o)
@@ -38,6 +39,9 @@ void drv_depth_opts_default(drv_depth_opts *o)
     memset(o, 0, sizeof *o);
     drv_intrinsics_kinect1(&o->k);
     o->step = 4;
+    o->cell_m = 0.0172f; /* step 4 at 2.5 m with the Kinect v1's fx */
+    o->step_min = 2;
+    o->step_max = 12;
     o->z_min = 0.4f;
     o->z_max = 4.0f;
     o->max_jump = 0.08f;
@@ -86,7 +90,7 @@ int drv_depth_tracker_create(const drv_depth_opts *o, drv_depth_tracker **out, c
     t->o = *o;
     int r = drv__grid_init(&t->g, o, err);
     if (r == 0)
-        r = drv__geodesic_init(&t->ge, o, t->g.n, err);
+        r = drv__geodesic_init(&t->ge, o, t->g.nmax, err);
     if (r) {
         drv_depth_tracker_destroy(t);
         return r;
@@ -111,6 +115,8 @@ void drv_depth_tracker_destroy(drv_depth_tracker *t)
 void drv_depth_tracker_reset(drv_depth_tracker *t)
 {
     t->rng = t->o.seed ? t->o.seed : 1;
+    t->person_z = 0;
+    drv__grid_set_step(&t->g, &t->o, t->o.step);
     for (int l = 0; l < DRV_DEPTH_NLABELS; l++) {
         t->missed[l] = INT32_MAX / 2;
         for (int a = 0; a < 3; a++)
@@ -159,6 +165,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     memset(r, 0, sizeof *r);
     for (int i = 0; i < DRV_DEPTH_MAX_EXTREMA; i++)
         r->extremum_label[i] = -1;
+    drv__grid_set_step(g, &t->o, drv__grid_choose_step(&t->o, g->step, t->person_z));
     drv__segment_sample(g, &t->o, depth_mm);
     float up[3] = {0, 1, 0};
     if (t->o.floor && drv__segment_floor(g, &t->o, &t->rng, r->floor)) {
@@ -172,6 +179,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     }
     r->person_cells = g->ncells;
     r->person_depth = g->mean_z;
+    t->person_z = g->mean_z;
     /* the geodesic source: the person's cell nearest to the centroid */
     int src = -1;
     float bd = FLT_MAX;

@@ -47,18 +47,20 @@ double drv__rand01(uint64_t *s)
 int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
 {
     memset(g, 0, sizeof *g);
+    const int smin = o->cell_m > 0 ? o->step_min : o->step;
     if (o->step < 1 || o->k.width < o->step || o->k.height < o->step || o->k.width > 8192 ||
-        o->k.height > 8192) {
+        o->k.height > 8192 ||
+        (o->cell_m > 0 && (o->step_min < 1 || o->step_max < o->step_min ||
+                           o->step < o->step_min || o->step > o->step_max ||
+                           o->k.width < o->step_max || o->k.height < o->step_max))) {
         if (err)
-            snprintf(err, DRV_ERR_LEN, "depth: bad image size %dx%d or step %d", o->k.width,
-                     o->k.height, o->step);
+            snprintf(err, DRV_ERR_LEN,
+                     "depth: bad image size %dx%d or step %d (adaptive: %g m, steps %d..%d)",
+                     o->k.width, o->k.height, o->step, o->cell_m, o->step_min, o->step_max);
         return -EINVAL;
     }
-    g->step = o->step;
-    g->gw = o->k.width / o->step;
-    g->gh = o->k.height / o->step;
-    g->n = g->gw * g->gh;
-    size_t n = (size_t)g->n;
+    g->nmax = (o->k.width / smin) * (o->k.height / smin);
+    size_t n = (size_t)g->nmax;
     g->P = malloc(n * 3 * sizeof *g->P);
     g->z = malloc(n * sizeof *g->z);
     g->px = malloc(n * 2 * sizeof *g->px);
@@ -80,7 +82,27 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
         return -ENOMEM;
     }
     memset(g->person, 0, n);
+    drv__grid_set_step(g, o, o->step);
     return 0;
+}
+
+int drv__grid_choose_step(const drv_depth_opts *o, int step, float z)
+{
+    if (!(o->cell_m > 0) || !(z > 0))
+        return step;
+    const float ideal = o->cell_m * (float)o->k.fx / z;
+    if (fabsf(ideal - (float)step) < 0.75f) /* hysteresis: no flicker between two sizes */
+        return step;
+    int s = (int)lroundf(ideal);
+    return s < o->step_min ? o->step_min : s > o->step_max ? o->step_max : s;
+}
+
+void drv__grid_set_step(drv__grid *g, const drv_depth_opts *o, int step)
+{
+    g->step = step;
+    g->gw = o->k.width / step;
+    g->gh = o->k.height / step;
+    g->n = g->gw * g->gh;
 }
 
 void drv__grid_fini(drv__grid *g)

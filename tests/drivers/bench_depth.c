@@ -1,5 +1,6 @@
 /* bench_depth.c - depth -> markers time per 640x480 frame (median, p99) on the 12 real Kinect
- * frames, one core. Usage: bench_depth [passes] [step]. Run by `meson test --benchmark`. */
+ * frames, one core: the default tracker (grid sized by the person's distance) against the fixed
+ * 4-pixel grid in the same run. Usage: bench_depth [passes]. Run by `meson test --benchmark`. */
 #include "depth/depth.h"
 #include "kinect_frames.h"
 #include "test.h"
@@ -20,21 +21,15 @@ static int cmp(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-int main(int argc, char **argv)
+/* Times the tracker on every frame, `passes` times over; prints median and p99. */
+static void run(const char *name, const drv_depth_opts *o, const uint16_t *d, int passes)
 {
-    int passes = argc > 1 ? atoi(argv[1]) : 200;
     char err[DRV_ERR_LEN] = "";
-    drv_depth_opts o;
-    drv_depth_opts_default(&o);
-    if (argc > 2)
-        o.step = atoi(argv[2]);
-    uint16_t *d = malloc((size_t)NF * 640 * 480 * sizeof *d);
-    for (int i = 0; i < NF; i++)
-        kinect_frame_load(frames[i], d + (size_t)i * 640 * 480);
     drv_depth_tracker *t;
-    ASSERT_OK(drv_depth_tracker_create(&o, &t, err), err);
+    ASSERT_OK(drv_depth_tracker_create(o, &t, err), err);
     int n = passes * NF;
     double *ms = malloc((size_t)n * sizeof *ms);
+    long cells = 0;
     drv_depth_result r;
     for (int p = 0; p < passes; p++)
         for (int i = 0; i < NF; i++) {
@@ -43,12 +38,27 @@ int main(int argc, char **argv)
             drv_depth_tracker_process(t, d + (size_t)i * 640 * 480, (uint64_t)(p * NF + i) * 33333, &r);
             clock_gettime(CLOCK_MONOTONIC, &c);
             ms[p * NF + i] = (c.tv_sec - a.tv_sec) * 1e3 + (c.tv_nsec - a.tv_nsec) * 1e-6;
+            cells += r.person_cells;
         }
     qsort(ms, (size_t)n, sizeof *ms, cmp);
-    printf("depth->markers 640x480, step %d (%dx%d cells), %d frames: median %.3f ms, p99 %.3f ms\n",
-           o.step, 640 / o.step, 480 / o.step, n, ms[n / 2], ms[(int)(0.99 * (n - 1))]);
+    printf("%-34s %d frames, %5ld person cells: median %.3f ms, p99 %.3f ms\n", name, n,
+           cells / n, ms[n / 2], ms[(int)(0.99 * (n - 1))]);
     free(ms);
-    free(d);
     drv_depth_tracker_destroy(t);
+}
+
+int main(int argc, char **argv)
+{
+    int passes = argc > 1 ? atoi(argv[1]) : 200;
+    uint16_t *d = malloc((size_t)NF * 640 * 480 * sizeof *d);
+    for (int i = 0; i < NF; i++)
+        kinect_frame_load(frames[i], d + (size_t)i * 640 * 480);
+    printf("depth->markers, 640x480 Kinect v1 frames (the 12 real ones), one core:\n");
+    drv_depth_opts o;
+    drv_depth_opts_default(&o);
+    run("grid sized by distance (default)", &o, d, passes);
+    o.cell_m = 0; /* the baseline: the fixed 4-pixel grid */
+    run("fixed 4-pixel grid (baseline)", &o, d, passes);
+    free(d);
     return 0;
 }
