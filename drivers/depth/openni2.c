@@ -456,32 +456,6 @@ static int oni_read(drv_source *s, drv_frame *fr, int timeout_ms, char *err)
     return 0;
 }
 
-/* recordings: "speed" (0 .. 100; 0 = every frame, as fast as read), "loop" (1/0) */
-static int oni_control(drv_source *s, const char *key, double value, char *err)
-{
-    char why[256];
-    oni_src *o = s->impl;
-    if (!o->playback)
-        return drv__err(err, -ENOTSUP, "openni2 %s: controls apply to recordings only", o->uri);
-    if (!strcmp(key, "speed")) {
-        if (!(value >= 0 && value <= 100))
-            return drv__err(err, -EINVAL, "openni2 %s: speed %g is not in 0 .. 100", o->uri, value);
-        if (set_speed(o, value) != 0)
-            return drv__err(err, -EIO, "openni2 %s: speed %g: %s", o->uri, value, oni_why(why));
-        o->speed = value;
-        return 0;
-    }
-    if (!strcmp(key, "loop")) {
-        OniBool rep = value != 0;
-        if (oniDeviceSetProperty(o->dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep,
-                                 sizeof rep) != ONI_STATUS_OK)
-            return drv__err(err, -EIO, "openni2 %s: loop: %s", o->uri, oni_why(why));
-        o->loop = rep;
-        return 0;
-    }
-    return drv__err(err, -ENOTSUP, "openni2 %s: no control '%s' (speed, loop)", o->uri, key);
-}
-
 static void oni_stop(drv_source *s)
 {
     oni_src *o = s->impl;
@@ -499,7 +473,7 @@ const drv_source_ops drv_openni2_ops = {
     .open = oni_open,
     .start = oni_start,
     .read = oni_read,
-    .control = oni_control,
+    .control = NULL, /* the daemon would offer pause/resume/seek/speed for every openni2 source */
     .stop = oni_stop,
     .close = oni_close,
 };

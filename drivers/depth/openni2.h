@@ -11,8 +11,10 @@
  * Recordings only: loop=0|1 (repeat, default 1; with 0 read returns DRV_EEOF after the last
  * frame, when OniFile reports ONI_DEVICE_STATE_EOF), speed=S (0 .. 100, default 1 = the recorded
  * rate, paced by the file's timestamps; 0 = every frame as fast as it is read, OpenNI2's manual
- * mode, playback speed -1). Controls (drv_source_control), recordings only: "speed" (as speed=)
- * and "loop" (1/0); others, and any on a live device, give -ENOTSUP.
+ * mode, playback speed -1); speed= on a live device is -EINVAL. No drv_source_control (yet).
+ * OpenNI2's player restarts its clock at each loop: no pause between the last and first frame.
+ * Each open truncates the record= file (OpenNI2's recorder), so a reopen after a loss starts it
+ * anew.
  *
  * Per stream: mirroring off (ONI_STREAM_PROPERTY_MIRRORING), intrinsics from the stream's fields
  * of view (fx = (w/2) / tan(hfov/2), fy = (h/2) / tan(vfov/2), centre at the image middle), depth
@@ -20,7 +22,7 @@
  * are mapped to CLOCK_MONOTONIC by the smallest offset host - device seen so far (the least
  * delayed frame), re-anchored when the device clock jumps back or drifts by more than 100 ms.
  *
- * Loss: OpenNI2's device callbacks (disconnected, or a state other than OK) and read errors make
+ * Loss: OpenNI2's device callbacks (disconnected, or the error state) and read errors make
  * read return DRV_ELOST; the daemon closes and reopens the source later.
  * Threads: OpenNI2 runs threads of its own (its drivers deliver frames on them); the callbacks
  * only set an atomic flag. */

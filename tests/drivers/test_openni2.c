@@ -438,7 +438,6 @@ int main(int argc, char **argv)
                span, want_span);
         ASSERT(back >= nrec - 1 && back <= nrec);
         ASSERT(span > 0.8 * want_span && span < 1.5 * want_span + 0.05);
-        ASSERT_INT_EQ(drv_source_control(s2, "speed", 101, err), -EINVAL);
         drv_source_close(s2);
 
         /* ... and by default in a loop; speed=0 gives every frame as fast as it is read */
@@ -461,9 +460,6 @@ int main(int argc, char **argv)
         printf("playback at speed=0, looping: %d frames in %.3f s\n", back, fast);
         ASSERT_INT_EQ(back, 2 * nrec + 3);
         ASSERT(fast < (2 * nrec + 3) / 30.0); /* faster than recorded */
-        ASSERT_OK(drv_source_control(s2, "speed", 1, err), err);
-        ASSERT_OK(drv_source_control(s2, "loop", 0, err), err);
-        ASSERT_INT_EQ(drv_source_control(s2, "seek", 0, err), -ENOTSUP);
         drv_source_close(s2);
         unlink(oni);
 
@@ -476,13 +472,9 @@ int main(int argc, char **argv)
         ASSERT(strstr(err, "cropping") != NULL);
         drv_source_close(s2);
         unlink(oni);
-        /* speed= and the controls are for recordings */
+        /* speed= is for recordings */
         snprintf(rspec, sizeof rspec, "openni2:meshsteer-testcam:%s#speed=2", dir);
         ASSERT_INT_EQ(drv_source_open(rspec, &s2, err), -EINVAL);
-        snprintf(rspec, sizeof rspec, "openni2:meshsteer-testcam:%s", dir);
-        ASSERT_OK(drv_source_open(rspec, &s2, err), err);
-        ASSERT_INT_EQ(drv_source_control(s2, "speed", 2, err), -ENOTSUP);
-        drv_source_close(s2);
         ASSERT_INT_EQ(drv_source_open("openni2:x#speed=-1", &s2, err), -EINVAL);
     }
 
