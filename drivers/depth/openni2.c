@@ -404,15 +404,23 @@ static int oni_read(drv_source *s, drv_frame *fr, int timeout_ms, char *err)
     oni_src *o = s->impl;
     if (atomic_load(&o->lost))
         return drv__err(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
-    int idx = -1;
-    int eof = atomic_load(&o->eof);
-    OniStatus st = oniWaitForAnyStream(&o->stream, 1, &idx,
-                                       eof ? 0 : timeout_ms < 0 ? -1 /* ONI_TIMEOUT_FOREVER */
-                                                                : timeout_ms);
+    int idx = -1, left = timeout_ms; /* < 0: forever (ONI_TIMEOUT_FOREVER is -1) */
+    OniStatus st;
+    for (;;) { /* a recording played once may end during the wait: wait in slices to notice */
+        int eof = atomic_load(&o->eof);
+        int t = eof ? 0 : left;
+        if (o->playback && !o->loop && (t < 0 || t > 100))
+            t = 100;
+        st = oniWaitForAnyStream(&o->stream, 1, &idx, t);
+        if (st != ONI_STATUS_TIME_OUT || eof || atomic_load(&o->lost))
+            break;
+        if (atomic_load(&o->eof)) /* ended: one more look for its last frame */
+            continue;
+        if (left >= 0 && (left -= t) <= 0)
+            break;
+    }
     if (atomic_load(&o->lost))
         return drv__err(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
-    if (st == ONI_STATUS_TIME_OUT && !eof && atomic_load(&o->eof)) /* ended while waiting */
-        st = oniWaitForAnyStream(&o->stream, 1, &idx, 0);
     if (st == ONI_STATUS_TIME_OUT)
         return atomic_load(&o->eof) ? DRV_EEOF : DRV_ETIMEOUT;
     if (st != ONI_STATUS_OK)

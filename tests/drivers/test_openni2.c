@@ -415,9 +415,9 @@ int main(int argc, char **argv)
         ASSERT_OK(drv_source_start(s2, err), err);
         int back = 0, r = 0;
         uint64_t first = 0, last = 0;
-        for (int it = 0; it < 100; it++) {
+        for (int it = 0; it < 100; it++) { /* waiting forever: the end must still come */
             drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
-            r = drv_source_read(s2, &fr, 500, err);
+            r = drv_source_read(s2, &fr, -1, err);
             if (r == DRV_ETIMEOUT)
                 continue;
             if (r == DRV_EEOF)
