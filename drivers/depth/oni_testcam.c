@@ -10,10 +10,12 @@
  * "OpenNI2/Drivers" next to the loaded libOpenNI2.so.0 (or the Repository of the fixed
  * /etc/openni2/OpenNI.ini); tests stage such a directory (test_openni2.c).
  *
- * URI: meshsteer-testcam:DIR[?vanish=N&fps=F]. One depth stream, 640x480 1 mm pixels, frames
- * of DIR in a loop at F fps (default: the recorded rate), timestamps in device microseconds from
- * stream start. vanish=N: after N frames the device reports itself disconnected (OpenNI2's
- * deviceDisconnected callback) and delivers nothing more; opening the URI again brings it back.
+ * URI: meshsteer-testcam:DIR[?vanish=N&fps=F&cropping=0|1]. One depth stream, 640x480 1 mm
+ * pixels, frames of DIR in a loop at F fps (default: the recorded rate), timestamps in device
+ * microseconds from stream start. vanish=N: after N frames the device reports itself disconnected
+ * (OpenNI2's deviceDisconnected callback) and delivers nothing more; opening the URI again brings
+ * it back. The stream reports cropping (off) as real drivers do, since OpenNI2's recorder needs it
+ * for its recordings to play; cropping=0 imitates a driver that does not.
  * The driver ABI has no handle for the driver itself, so its callbacks live in one file-scope
  * struct (the one exception to "state in the handle" that the plugin ABI forces). */
 #include "fakenect.h"
@@ -68,6 +70,7 @@ struct tc_device {
     OniSensorInfo sensor;
     char dir[1024];
     int vanish;            /* frames before vanishing, 0 = never */
+    int cropping;          /* 1: the cropping property is reported */
     double fps;
     int n;                 /* frames */
     char (*file)[96];
@@ -76,7 +79,8 @@ struct tc_device {
     tc_stream *stream;
 };
 
-static int parse_uri(const char *uri, char *dir, size_t dirlen, int *vanish, double *fps)
+static int parse_uri(const char *uri, char *dir, size_t dirlen, int *vanish, double *fps,
+                     int *cropping)
 {
     if (strncmp(uri, TC_PREFIX, strlen(TC_PREFIX)))
         return -1;
@@ -89,6 +93,7 @@ static int parse_uri(const char *uri, char *dir, size_t dirlen, int *vanish, dou
     dir[dl] = '\0';
     *vanish = 0;
     *fps = 0;
+    *cropping = 1;
     while (q && *q) {
         q++;
         char *end;
@@ -102,6 +107,9 @@ static int parse_uri(const char *uri, char *dir, size_t dirlen, int *vanish, dou
             if (end == q + 4 || !(f > 0 && f <= 1000))
                 return -1;
             *fps = f;
+        } else if (!strncmp(q, "cropping=", 9) && (q[9] == '0' || q[9] == '1')) {
+            *cropping = q[9] == '1';
+            end = (char *)q + 10;
         } else {
             return -1;
         }
@@ -239,9 +247,9 @@ EXPORT OniStatus oniDriverInitialize(tc_dev_cb connected, tc_dev_cb disconnected
 EXPORT OniStatus oniDriverTryDevice(const char *uri)
 {
     char dir[1024], path[1100];
-    int vanish;
+    int vanish, cropping;
     double fps;
-    if (!uri || parse_uri(uri, dir, sizeof dir, &vanish, &fps) != 0)
+    if (!uri || parse_uri(uri, dir, sizeof dir, &vanish, &fps, &cropping) != 0)
         return ONI_STATUS_ERROR;
     snprintf(path, sizeof path, "%s/INDEX.txt", dir);
     FILE *f = fopen(path, "r");
@@ -264,7 +272,7 @@ EXPORT void *oniDriverDeviceOpen(const char *uri, const char *mode)
     tc_device *d = calloc(1, sizeof *d);
     if (!d)
         return NULL;
-    if (!uri || parse_uri(uri, d->dir, sizeof d->dir, &d->vanish, &d->fps) != 0 ||
+    if (!uri || parse_uri(uri, d->dir, sizeof d->dir, &d->vanish, &d->fps, &d->cropping) != 0 ||
         load_index(d) != 0 || !(d->mm = malloc((size_t)TC_W * TC_H * 2)) ||
         !(d->buf = malloc(64 + (size_t)TC_W * TC_H * 2 + 1))) {
         free(d->file);
@@ -387,6 +395,8 @@ EXPORT OniStatus oniDriverStreamSetProperty(void *stream, int id, const void *da
         s->mirror = *(const OniBool *)data != 0;
         return ONI_STATUS_OK;
     }
+    if (id == ONI_STREAM_PROPERTY_CROPPING && s->dev->cropping && size == (int)sizeof(OniCropping))
+        return !((const OniCropping *)data)->enabled ? ONI_STATUS_OK : ONI_STATUS_NOT_SUPPORTED;
     if (id == ONI_STREAM_PROPERTY_VIDEO_MODE && size == (int)sizeof(OniVideoMode))
         return !memcmp(data, &s->dev->mode, sizeof(OniVideoMode)) ? ONI_STATUS_OK
                                                                    : ONI_STATUS_NOT_SUPPORTED;
@@ -418,6 +428,14 @@ EXPORT OniStatus oniDriverStreamGetProperty(void *stream, int id, void *data, in
         *(OniBool *)data = s->mirror;
         *size = sizeof(OniBool);
         return ONI_STATUS_OK;
+    case ONI_STREAM_PROPERTY_CROPPING: /* never on; OpenNI2's player needs to be told so */
+        if (!s->dev->cropping)
+            return ONI_STATUS_NOT_SUPPORTED;
+        if (*size < (int)sizeof(OniCropping))
+            return ONI_STATUS_BAD_PARAMETER;
+        memset(data, 0, sizeof(OniCropping));
+        *size = sizeof(OniCropping);
+        return ONI_STATUS_OK;
     case ONI_STREAM_PROPERTY_MAX_VALUE:
     case ONI_STREAM_PROPERTY_MIN_VALUE:
     case ONI_STREAM_PROPERTY_STRIDE:
@@ -432,11 +450,13 @@ EXPORT OniStatus oniDriverStreamGetProperty(void *stream, int id, void *data, in
 
 EXPORT OniBool oniDriverStreamIsPropertySupported(void *stream, int id)
 {
-    (void)stream;
+    const tc_stream *s = stream;
+    if (id == ONI_STREAM_PROPERTY_CROPPING)
+        return s->dev->cropping;
     return id == ONI_STREAM_PROPERTY_VIDEO_MODE || id == ONI_STREAM_PROPERTY_HORIZONTAL_FOV ||
            id == ONI_STREAM_PROPERTY_VERTICAL_FOV || id == ONI_STREAM_PROPERTY_MIRRORING ||
            id == ONI_STREAM_PROPERTY_MAX_VALUE || id == ONI_STREAM_PROPERTY_MIN_VALUE ||
-           id == ONI_STREAM_PROPERTY_STRIDE;
+           id == ONI_STREAM_PROPERTY_STRIDE || id == ONI_STREAM_PROPERTY_CROPPING;
 }
 EXPORT void oniDriverStreamSetPropertyChangedCallback(void *stream, tc_prop_cb cb, void *cookie)
 {

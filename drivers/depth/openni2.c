@@ -58,12 +58,16 @@ typedef struct oni_src {
     char uri[1024];
     char dev_uri[ONI_MAX_STR];   /* the opened device's URI, for the callbacks */
     int want_w, want_h, want_fps, loop;
+    double speed;                /* recordings: 1 = as recorded, 0 = as fast as read, lossless */
+    int speed_set;
+    int playback;                /* the device is a recording (OpenNI2's OniFile driver) */
     int initialized;
     OniDeviceHandle dev;
     OniStreamHandle stream;
     OniCallbackHandle cb;
     int cb_registered;
     atomic_int lost;
+    atomic_int eof;              /* a recording without repeat has played its last frame */
     OniVideoMode mode;
     drv_intrinsics k;
     drv_depth_tracker *trk;
@@ -95,8 +99,24 @@ static void ONI_CALLBACK_TYPE on_connected(const OniDeviceInfo *info, void *cook
 static void ONI_CALLBACK_TYPE on_state(const OniDeviceInfo *info, OniDeviceState st, void *cookie)
 {
     oni_src *o = cookie;
-    if (st == ONI_DEVICE_STATE_ERROR && uri_matches(o, info))
+    if (!uri_matches(o, info))
+        return;
+    if (st == ONI_DEVICE_STATE_ERROR)
         atomic_store(&o->lost, 1);
+    else if (st == ONI_DEVICE_STATE_EOF) /* OniFile, repeat off: after its last frame */
+        atomic_store(&o->eof, 1);
+}
+
+/* OpenNI2's playback speed for ours: 0 (every frame, as fast as it is read) is its manual mode
+ * (-1: the player releases the next frame when oniWaitForAnyStream pokes it); its own 0 would
+ * let the player overrun the reader, and OpenNI2 keeps only the newest frame. */
+static int set_speed(oni_src *o, double speed)
+{
+    float v = speed > 0 ? (float)speed : -1.0f;
+    return oniDeviceSetProperty(o->dev, ONI_DEVICE_PROPERTY_PLAYBACK_SPEED, &v, sizeof v) ==
+                   ONI_STATUS_OK
+               ? 0
+               : -EIO;
 }
 
 static void oni_free(oni_src *o)
@@ -138,6 +158,16 @@ static int parse_opts(oni_src *o, const char *q, char *err)
             snprintf(o->record, sizeof o->record, "%s", eq + 1);
             continue;
         }
+        if (!strcmp(kv, "speed")) { /* a factor, not an integer */
+            char *end;
+            double v = strtod(eq + 1, &end);
+            if (*end || end == eq + 1 || !(v >= 0 && v <= 100))
+                return drv__err(err, -EINVAL, "openni2: option speed: '%s' is not a factor in "
+                                "0 .. 100 (0: every frame, as fast as read)", eq + 1);
+            o->speed = v;
+            o->speed_set = 1;
+            continue;
+        }
         char *end;
         long v = strtol(eq + 1, &end, 10);
         if (*end || end == eq + 1)
@@ -153,7 +183,7 @@ static int parse_opts(oni_src *o, const char *q, char *err)
         else
             return drv__err(err, -EINVAL,
                         "openni2: option %s=%ld unknown or out of range (width, height, fps, loop, "
-                        "record)",
+                        "speed, record)",
                         kv, v);
     }
     return 0;
@@ -192,6 +222,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     o->want_h = 480;
     o->want_fps = 30;
     o->loop = 1;
+    o->speed = 1;
     const char *hash = strchr(arg, '#');
     size_t ul = hash ? (size_t)(hash - arg) : strlen(arg);
     int r;
@@ -207,6 +238,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
         return r;
     }
     atomic_init(&o->lost, 0);
+    atomic_init(&o->eof, 0);
     if (oniInitialize(ONI_API_VERSION) != ONI_STATUS_OK) {
         r = drv__err(err, -EIO, "openni2: initialise: %s", oni_why(why));
         oni_free(o);
@@ -274,9 +306,22 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     OniBool mirror = 0;
     if (oniStreamIsPropertySupported(o->stream, ONI_STREAM_PROPERTY_MIRRORING))
         oniStreamSetProperty(o->stream, ONI_STREAM_PROPERTY_MIRRORING, &mirror, sizeof mirror);
-    if (oniDeviceIsPropertySupported(o->dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED)) {
+    o->playback = oniDeviceIsPropertySupported(o->dev, ONI_DEVICE_PROPERTY_PLAYBACK_SPEED) &&
+                  oniDeviceIsPropertySupported(o->dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED);
+    if (o->playback) {
         OniBool rep = o->loop ? 1 : 0;
-        oniDeviceSetProperty(o->dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep, sizeof rep);
+        if (oniDeviceSetProperty(o->dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep,
+                                 sizeof rep) != ONI_STATUS_OK ||
+            set_speed(o, o->speed) != 0) {
+            r = drv__err(err, -EIO, "openni2 %s: cannot set the playback speed or repeat: %s",
+                         name, oni_why(why));
+            oni_free(o);
+            return r;
+        }
+    } else if (o->speed_set) {
+        r = drv__err(err, -EINVAL, "openni2 %s: speed= applies to recordings only", name);
+        oni_free(o);
+        return r;
     }
     float hfov = 0, vfov = 0;
     sz = sizeof hfov;
@@ -311,27 +356,45 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     return 0;
 }
 
+/* OpenNI2's recorder writes the stream's cropping into the file only when the stream reports one
+ * (ONI_STREAM_PROPERTY_CROPPING), and its player (OniFile's PlayerStream) silently drops every
+ * frame of a stream whose cropping it does not know: such a recording would never play. */
+static int start_recorder(oni_src *o, char *err)
+{
+    char why[256];
+    OniCropping crop;
+    int sz = sizeof crop;
+    if (oniStreamGetProperty(o->stream, ONI_STREAM_PROPERTY_CROPPING, &crop, &sz) != ONI_STATUS_OK)
+        return drv__err(err, -ENOTSUP, "openni2 %s: cannot record to %s: the device's driver "
+                        "reports no cropping property, without which OpenNI2's player drops "
+                        "every frame of the recording", o->uri, o->record);
+    if (oniCreateRecorder(o->record, &o->rec) != ONI_STATUS_OK ||
+        oniRecorderAttachStream(o->rec, o->stream, 0) != ONI_STATUS_OK ||
+        oniRecorderStart(o->rec) != ONI_STATUS_OK) {
+        int r = drv__err(err, -EIO, "openni2 %s: cannot record to %s: %s", o->uri, o->record,
+                         oni_why(why));
+        if (o->rec)
+            oniRecorderDestroy(&o->rec);
+        return r;
+    }
+    return 0;
+}
+
 static int oni_start(drv_source *s, char *err)
 {
     char why[256];
     oni_src *o = s->impl;
+    int r;
     drv_depth_tracker_reset(o->trk);
     memset(&o->clock, 0, sizeof o->clock);
+    atomic_store(&o->eof, 0);
+    /* the recorder first (lossless: the recording must replay to the same markers): it starts
+     * on its own thread and drops the frames that come before */
+    if (o->record[0] && !o->rec && (r = start_recorder(o, err)))
+        return r;
     if (oniStreamStart(o->stream) != ONI_STATUS_OK)
         return drv__err(err, atomic_load(&o->lost) ? DRV_ELOST : -EIO,
                     "openni2 %s: cannot start the depth stream: %s", o->uri, oni_why(why));
-    if (o->record[0] && !o->rec) { /* lossless: the recording must replay to the same markers */
-        if (oniCreateRecorder(o->record, &o->rec) != ONI_STATUS_OK ||
-            oniRecorderAttachStream(o->rec, o->stream, 0) != ONI_STATUS_OK ||
-            oniRecorderStart(o->rec) != ONI_STATUS_OK) {
-            int r = drv__err(err, -EIO, "openni2 %s: cannot record to %s: %s", o->uri, o->record,
-                         oni_why(why));
-            if (o->rec)
-                oniRecorderDestroy(&o->rec);
-            oniStreamStop(o->stream);
-            return r;
-        }
-    }
     return 0;
 }
 
@@ -341,13 +404,25 @@ static int oni_read(drv_source *s, drv_frame *fr, int timeout_ms, char *err)
     oni_src *o = s->impl;
     if (atomic_load(&o->lost))
         return drv__err(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
-    int idx = -1;
-    OniStatus st = oniWaitForAnyStream(&o->stream, 1, &idx,
-                                       timeout_ms < 0 ? -1 /* ONI_TIMEOUT_FOREVER */ : timeout_ms);
+    int idx = -1, left = timeout_ms; /* < 0: forever (ONI_TIMEOUT_FOREVER is -1) */
+    OniStatus st;
+    for (;;) { /* a recording played once may end during the wait: wait in slices to notice */
+        int eof = atomic_load(&o->eof);
+        int t = eof ? 0 : left;
+        if (o->playback && !o->loop && (t < 0 || t > 100))
+            t = 100;
+        st = oniWaitForAnyStream(&o->stream, 1, &idx, t);
+        if (st != ONI_STATUS_TIME_OUT || eof || atomic_load(&o->lost))
+            break;
+        if (atomic_load(&o->eof)) /* ended: one more look for its last frame */
+            continue;
+        if (left >= 0 && (left -= t) <= 0)
+            break;
+    }
     if (atomic_load(&o->lost))
         return drv__err(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
     if (st == ONI_STATUS_TIME_OUT)
-        return DRV_ETIMEOUT;
+        return atomic_load(&o->eof) ? DRV_EEOF : DRV_ETIMEOUT;
     if (st != ONI_STATUS_OK)
         return drv__err(err, DRV_ELOST, "openni2 %s: waiting for depth: %s", o->uri,
                     oni_why(why));
@@ -406,7 +481,7 @@ const drv_source_ops drv_openni2_ops = {
     .open = oni_open,
     .start = oni_start,
     .read = oni_read,
-    .control = NULL,
+    .control = NULL, /* the daemon would offer pause/resume/seek/speed for every openni2 source */
     .stop = oni_stop,
     .close = oni_close,
 };

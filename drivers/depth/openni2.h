@@ -4,9 +4,17 @@
  * URI: any OpenNI2 device URI (as oniGetDeviceList lists them), a .oni recording (OpenNI2's own
  * OniFile driver plays it), or empty for the first device found. Options follow a '#' (URIs may
  * contain '?' and ':'): width=, height=, fps= choose the depth mode (nearest supported, preferring
- * 1 mm depth pixels; default 640x480 at 30), loop=0|1 (recordings: repeat, default 1),
- * record=PATH.oni (OpenNI2's recorder writes the depth stream to PATH, losslessly, from start on;
- * playing such a file back is not yet verified).
+ * 1 mm depth pixels; default 640x480 at 30), record=PATH.oni (OpenNI2's recorder writes the depth
+ * stream to PATH, losslessly, from start on; refused with -ENOTSUP when the device's driver does
+ * not report ONI_STREAM_PROPERTY_CROPPING, because OpenNI2's player drops every frame of a stream
+ * whose cropping the file does not record).
+ * Recordings only: loop=0|1 (repeat, default 1; with 0 read returns DRV_EEOF after the last
+ * frame, when OniFile reports ONI_DEVICE_STATE_EOF), speed=S (0 .. 100, default 1 = the recorded
+ * rate, paced by the file's timestamps; 0 = every frame as fast as it is read, OpenNI2's manual
+ * mode, playback speed -1); speed= on a live device is -EINVAL. No drv_source_control (yet).
+ * OpenNI2's player restarts its clock at each loop: no pause between the last and first frame.
+ * Each open truncates the record= file (OpenNI2's recorder), so a reopen after a loss starts it
+ * anew.
  *
  * Per stream: mirroring off (ONI_STREAM_PROPERTY_MIRRORING), intrinsics from the stream's fields
  * of view (fx = (w/2) / tan(hfov/2), fy = (h/2) / tan(vfov/2), centre at the image middle), depth
@@ -14,7 +22,7 @@
  * are mapped to CLOCK_MONOTONIC by the smallest offset host - device seen so far (the least
  * delayed frame), re-anchored when the device clock jumps back or drifts by more than 100 ms.
  *
- * Loss: OpenNI2's device callbacks (disconnected, or a state other than OK) and read errors make
+ * Loss: OpenNI2's device callbacks (disconnected, or the error state) and read errors make
  * read return DRV_ELOST; the daemon closes and reopens the source later.
  * Threads: OpenNI2 runs threads of its own (its drivers deliver frames on them); the callbacks
  * only set an atomic flag. */

@@ -4,10 +4,13 @@
  * fixed), so the test stages a copy of the library with our plugin beside it, re-executes itself
  * with LD_LIBRARY_PATH pointing there, then: streams markers from a fakenect dump of real Kinect
  * frames served by the plugin, sees the device vanish (DRV_ELOST), reopens it in the same handle
- * (drv_source_reopen, the daemon's recovery), checks the device-to-monotonic clock mapping and the
- * error for a missing device; then runs meshsteerd (MESHSTEERD) with a samba model driven by the
- * depth labels (rigs/samba-depth.json) on the vanishing test camera and watches /healthz show the
- * loss and the recovery while frames keep coming, and SIGTERM end it with status 0. */
+ * (drv_source_reopen, the daemon's recovery), checks the device-to-monotonic clock mapping,
+ * records to .oni (record=) and plays the recording back (OpenNI2's own libOniFile.so.0 staged
+ * too): pixel for pixel through the C API, at the recorded rate to its end (loop=0), and looping
+ * at speed=0; checks the error for a missing device; then runs meshsteerd (MESHSTEERD) with a
+ * samba model driven by the depth labels (rigs/samba-depth.json) on the vanishing test camera and
+ * watches /healthz show the loss and the recovery while frames keep coming, and SIGTERM end it
+ * with status 0. */
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -204,12 +207,11 @@ int main(int argc, char **argv)
         char src[4400];
         snprintf(src, sizeof src, "%s", di.dli_fname);
         char *slash = strrchr(src, '/');
-        if (slash) {
-            snprintf(slash + 1, sizeof src - (size_t)(slash + 1 - src), "OpenNI2/Drivers/libOniFile.so.0");
-            snprintf(p, sizeof p, "%s/OpenNI2/Drivers/libOniFile.so.0", stage);
-            if (access(src, R_OK) == 0)
-                copy_file(src, p);
-        }
+        ASSERT(slash);
+        snprintf(slash + 1, sizeof src - (size_t)(slash + 1 - src), "OpenNI2/Drivers/libOniFile.so.0");
+        snprintf(p, sizeof p, "%s/OpenNI2/Drivers/libOniFile.so.0", stage);
+        ASSERT(access(src, R_OK) == 0); /* in Debian's libopenni2-0, beside the library */
+        copy_file(src, p);
         setenv("LD_LIBRARY_PATH", stage, 1);
         setenv("MESHSTEER_ONI_STAGED", stage, 1);
         execv("/proc/self/exe", argv);
@@ -304,7 +306,8 @@ int main(int argc, char **argv)
     }
     drv_source_close(s);
 
-    /* ---- recording: OpenNI2's recorder writes what the source receives to .oni */
+    /* ---- recording: OpenNI2's recorder writes what the source receives to .oni, and the same
+     * source plays it back (OpenNI2's OniFile driver, staged beside the library) */
     {
         char rspec[9200], oni[4200];
         snprintf(oni, sizeof oni, "%s/rec.oni", stage);
@@ -316,7 +319,7 @@ int main(int argc, char **argv)
         float xyz[DRV_DEPTH_NLABELS * 3];
         uint8_t valid[DRV_DEPTH_NLABELS];
         int got = 0;
-        for (int it = 0; it < 100 && got < 6; it++) {
+        for (int it = 0; it < 100 && got < 15; it++) {
             drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
             int r = drv_source_read(s2, &fr, 500, err);
             if (r == DRV_ETIMEOUT)
@@ -327,12 +330,152 @@ int main(int argc, char **argv)
         drv_source_close(s2);
         struct stat st;
         ASSERT(stat(oni, &st) == 0 && st.st_size > 640 * 480);
-        /* Not yet working: playing this file back. With OpenNI2's own OniFile driver staged beside
-         * the library the file opens (5 frames, 640x480, 1 mm pixels, speed 1, repeat on) and
-         * its stream starts, but the player delivers no frame (oniWaitForAnyStream times out);
-         * see the issue note. */
-        printf("recording: %d frames to %s (%ld bytes)\n", got, oni, (long)st.st_size);
+        printf("recording: %d frames received, %s is %ld bytes\n", got, oni, (long)st.st_size);
+
+        /* the file itself, through OpenNI2's C API: every frame read once (manual playback),
+         * 640x480 1 mm, equal pixel for pixel to the dump frame the plugin served, 30 fps timestamps */
+        uint16_t *ref[2] = {malloc(640 * 480 * 2), malloc(640 * 480 * 2)};
+        ASSERT(ref[0] && ref[1]);
+        for (int k = 0; k < 2; k++) { /* what the plugin serves: the dump's frames, parsed */
+            char pgm[4400];
+            snprintf(pgm, sizeof pgm, "%s/d-%f-%u.pgm", dir, 10.0 + k / 30.0, (unsigned)k);
+            FILE *in = fopen(pgm, "rb");
+            ASSERT(in);
+            uint8_t *buf = malloc(64 + 640 * 480 * 2);
+            ASSERT(buf);
+            size_t len = fread(buf, 1, 64 + 640 * 480 * 2, in);
+            fclose(in);
+            ASSERT_OK(drv_fakenect_parse_depth(buf, len, pgm, ref[k], err), err);
+            free(buf);
+        }
+        int nrec = 0;
+        {
+            OniDeviceHandle dev;
+            OniStreamHandle str;
+            ASSERT_INT_EQ(oniInitialize(ONI_API_VERSION), ONI_STATUS_OK);
+            ASSERT_INT_EQ(oniDeviceOpen(oni, &dev), ONI_STATUS_OK);
+            float speed = -1; /* OpenNI2's manual mode: one frame per wait */
+            OniBool rep = 0;
+            ASSERT_INT_EQ(oniDeviceSetProperty(dev, ONI_DEVICE_PROPERTY_PLAYBACK_SPEED, &speed, sizeof speed),
+                          ONI_STATUS_OK);
+            ASSERT_INT_EQ(oniDeviceSetProperty(dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep, sizeof rep),
+                          ONI_STATUS_OK);
+            ASSERT_INT_EQ(oniDeviceCreateStream(dev, ONI_SENSOR_DEPTH, &str), ONI_STATUS_OK);
+            int sz = sizeof nrec;
+            ASSERT_INT_EQ(oniStreamGetProperty(str, ONI_STREAM_PROPERTY_NUMBER_OF_FRAMES, &nrec, &sz),
+                          ONI_STATUS_OK);
+            printf("recording: %d frames in the file\n", nrec);
+            /* the recorder starts on its own thread and may miss the first frame or two */
+            ASSERT(nrec >= got - 3 && nrec <= got + 2);
+            ASSERT_INT_EQ(oniStreamStart(str), ONI_STATUS_OK);
+            int n = 0, k0 = -1;
+            uint64_t t0 = 0;
+            for (;;) {
+                int idx;
+                if (oniWaitForAnyStream(&str, 1, &idx, 1000) != ONI_STATUS_OK)
+                    break;
+                OniFrame *f = NULL;
+                ASSERT_INT_EQ(oniStreamReadFrame(str, &f), ONI_STATUS_OK);
+                ASSERT_INT_EQ(f->width, 640);
+                ASSERT_INT_EQ(f->height, 480);
+                ASSERT_INT_EQ(f->stride, 1280);
+                ASSERT_INT_EQ(f->dataSize, 640 * 480 * 2);
+                ASSERT_INT_EQ(f->videoMode.pixelFormat, ONI_PIXEL_FORMAT_DEPTH_1_MM);
+                ASSERT_INT_EQ(f->frameIndex, n + 1);
+                if (n == 0)
+                    t0 = f->timestamp;
+                else /* the plugin's 30 fps clock, shifted to start at 0 by the recorder */
+                    ASSERT(llabs((long long)(f->timestamp - t0) - n * 33333LL) <= n);
+                const uint16_t *px = f->data;
+                if (k0 < 0) /* which of the two dump frames the recording starts with */
+                    k0 = px[240 * 640 + 320] == ref[0][240 * 640 + 320] ? 0 : 1;
+                const uint16_t *want = ref[(k0 + n) % 2];
+                int diff = 0;
+                for (int i = 0; i < 640 * 480; i++)
+                    if (px[i] != want[i] && diff++ < 3)
+                        fprintf(stderr, "frame %d pixel %d: %u, expected %u\n", n, i, px[i], want[i]);
+                ASSERT_INT_EQ(diff, 0);
+                oniFrameRelease(f);
+                n++;
+            }
+            ASSERT_INT_EQ(n, nrec);
+            oniStreamStop(str);
+            oniStreamDestroy(str);
+            oniDeviceClose(dev);
+            oniShutdown();
+        }
+        free(ref[0]);
+        free(ref[1]);
+
+        /* through the source, as the daemon plays it: at the recorded rate, once (loop=0) ... */
+        char pspec[4300];
+        snprintf(pspec, sizeof pspec, "openni2:%s#loop=0", oni);
+        ASSERT_OK(drv_source_open(pspec, &s2, err), err);
+        ASSERT_INT_EQ(s2->count, DRV_DEPTH_NLABELS);
+        ASSERT_OK(drv_source_start(s2, err), err);
+        int back = 0, r = 0;
+        uint64_t first = 0, last = 0;
+        for (int it = 0; it < 100; it++) { /* waiting forever: the end must still come */
+            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
+            r = drv_source_read(s2, &fr, -1, err);
+            if (r == DRV_ETIMEOUT)
+                continue;
+            if (r == DRV_EEOF)
+                break;
+            ASSERT_OK(r, err);
+            if (!back)
+                first = fr.t_capture_us;
+            ASSERT(back == 0 || fr.t_capture_us > last);
+            last = fr.t_capture_us;
+            ASSERT(valid[DRV_DEPTH_HEAD] && valid[DRV_DEPTH_LHAND] && valid[DRV_DEPTH_RHAND]);
+            ASSERT(xyz[2] < -1.0f && xyz[2] > -1.6f);
+            back++;
+        }
+        ASSERT_INT_EQ(r, DRV_EEOF);
+        ASSERT_INT_EQ(s2->state, DRV_STATE_ENDED);
+        double span = (double)(last - first) / 1e6, want_span = (nrec - 1) / 30.0;
+        printf("playback: %d of %d frames in %.3f s (recorded: %.3f s), then the end\n", back, nrec,
+               span, want_span);
+        ASSERT(back >= nrec - 1 && back <= nrec);
+        ASSERT(span > 0.8 * want_span && span < 1.5 * want_span + 0.05);
+        drv_source_close(s2);
+
+        /* ... and by default in a loop; speed=0 gives every frame as fast as it is read */
+        snprintf(pspec, sizeof pspec, "openni2:%s#speed=0", oni);
+        ASSERT_OK(drv_source_open(pspec, &s2, err), err);
+        ASSERT_OK(drv_source_start(s2, err), err);
+        back = 0;
+        uint64_t t_start = now_us();
+        for (int it = 0; it < 200 && back < 2 * nrec + 3; it++) {
+            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
+            r = drv_source_read(s2, &fr, 500, err);
+            if (r == DRV_ETIMEOUT)
+                continue;
+            ASSERT_OK(r, err);
+            ASSERT(back == 0 || fr.t_capture_us > last);
+            last = fr.t_capture_us;
+            back++;
+        }
+        double fast = (double)(now_us() - t_start) / 1e6;
+        printf("playback at speed=0, looping: %d frames in %.3f s\n", back, fast);
+        ASSERT_INT_EQ(back, 2 * nrec + 3);
+        ASSERT(fast < (2 * nrec + 3) / 30.0); /* faster than recorded */
+        drv_source_close(s2);
         unlink(oni);
+
+        /* a driver without the cropping property would make an unplayable recording: refused */
+        snprintf(rspec, sizeof rspec,
+                 "openni2:meshsteer-testcam:%s?cropping=0#record=%s", dir, oni);
+        ASSERT_OK(drv_source_open(rspec, &s2, err), err);
+        ASSERT_INT_EQ(drv_source_start(s2, err), -ENOTSUP);
+        printf("no cropping: %s\n", err);
+        ASSERT(strstr(err, "cropping") != NULL);
+        drv_source_close(s2);
+        unlink(oni);
+        /* speed= is for recordings */
+        snprintf(rspec, sizeof rspec, "openni2:meshsteer-testcam:%s#speed=2", dir);
+        ASSERT_INT_EQ(drv_source_open(rspec, &s2, err), -EINVAL);
+        ASSERT_INT_EQ(drv_source_open("openni2:x#speed=-1", &s2, err), -EINVAL);
     }
 
     /* ---- the daemon end to end: meshsteerd streams a depth-driven model from the test camera,
