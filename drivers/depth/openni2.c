@@ -341,6 +341,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     drv_depth_opts_default(&d);
     d.k = o->k;
     d.step = w >= 640 ? 4 : w >= 320 ? 2 : 1;
+    d.step_min = d.step < d.step_min ? d.step : d.step_min; /* then sized by distance */
     if (!(o->mm = malloc((size_t)w * h * sizeof *o->mm))) {
         oni_free(o);
         return drv__err(err, -ENOMEM, "openni2 %s: out of memory", name);

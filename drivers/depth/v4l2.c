@@ -559,8 +559,10 @@ int drv_v4l2_source_open_sys(drv_source *s, const char *arg, const drv_v4l2_sys 
     drv_depth_opts d;
     drv_depth_opts_default(&d);
     drv_v4l2_cam_format(v->cam, &d.k);
-    if (d.k.width != 640 || d.k.height != 480)
+    if (d.k.width != 640 || d.k.height != 480) {
         d.step = d.k.width >= 320 ? 2 : 1; /* keep the grid near 160x120 */
+        d.step_min = d.step < d.step_min ? d.step : d.step_min; /* then sized by distance */
+    }
     v->mm = malloc((size_t)d.k.width * d.k.height * sizeof *v->mm);
     if (!v->mm) {
         v4_free(v);
