@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 static uint64_t now_us(void)
 {
@@ -360,20 +361,44 @@ static int oni_open(drv_source *s, const char *arg, char *err)
 /* OpenNI2's recorder writes the stream's cropping into the file only when the stream reports one
  * (ONI_STREAM_PROPERTY_CROPPING), and its player (OniFile's PlayerStream) silently drops every
  * frame of a stream whose cropping it does not know: such a recording would never play. */
+/* The file a recording goes to: PATH itself when no file has that name, else the first free
+ * STEM-N.EXT (N = 1, 2, ...): an earlier recording is never overwritten, also not when the daemon
+ * reopens a lost camera and so starts recording again. */
+static int recording_path(const char *path, char *out, size_t n)
+{
+    if (access(path, F_OK) != 0) {
+        snprintf(out, n, "%s", path);
+        return 0;
+    }
+    const char *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
+    size_t stem = dot && (!slash || dot > slash + 1) ? (size_t)(dot - path) : strlen(path);
+    for (int k = 1; k < 100000; k++) {
+        if ((size_t)snprintf(out, n, "%.*s-%d%s", (int)stem, path, k, path + stem) >= n)
+            return -ENAMETOOLONG;
+        if (access(out, F_OK) != 0)
+            return 0;
+    }
+    return -EEXIST;
+}
+
 static int start_recorder(oni_src *o, char *err)
 {
-    char why[256];
+    char why[256], path[sizeof o->record + 16];
     OniCropping crop;
     int sz = sizeof crop;
     if (oniStreamGetProperty(o->stream, ONI_STREAM_PROPERTY_CROPPING, &crop, &sz) != ONI_STATUS_OK)
         return drv__err(err, -ENOTSUP, "openni2 %s: cannot record to %s: the device's driver "
                         "reports no cropping property, without which OpenNI2's player drops "
                         "every frame of the recording", o->uri, o->record);
-    if (oniCreateRecorder(o->record, &o->rec) != ONI_STATUS_OK ||
+    int r = recording_path(o->record, path, sizeof path);
+    if (r)
+        return drv__err(err, r, "openni2 %s: cannot record to %s: no free file name beside it",
+                        o->uri, o->record);
+    if (oniCreateRecorder(path, &o->rec) != ONI_STATUS_OK ||
         oniRecorderAttachStream(o->rec, o->stream, 0) != ONI_STATUS_OK ||
         oniRecorderStart(o->rec) != ONI_STATUS_OK) {
-        int r = drv__err(err, -EIO, "openni2 %s: cannot record to %s: %s", o->uri, o->record,
-                         oni_why(why));
+        r = drv__err(err, -EIO, "openni2 %s: cannot record to %s: %s", o->uri, path,
+                     oni_why(why));
         if (o->rec)
             oniRecorderDestroy(&o->rec);
         return r;

@@ -13,8 +13,8 @@
  * rate, paced by the file's timestamps; 0 = every frame as fast as it is read, OpenNI2's manual
  * mode, playback speed -1); speed= on a live device is -EINVAL. No drv_source_control (yet).
  * OpenNI2's player restarts its clock at each loop: no pause between the last and first frame.
- * Each open truncates the record= file (OpenNI2's recorder), so a reopen after a loss starts it
- * anew.
+ * An existing file is never overwritten: when PATH exists, the recording goes to PATH-1.oni,
+ * PATH-2.oni, ... (the first free name), so a reopen after a loss starts the next file.
  *
  * Per stream: mirroring off (ONI_STREAM_PROPERTY_MIRRORING), intrinsics from the stream's fields
  * of view (fx = (w/2) / tan(hfov/2), fy = (h/2) / tan(vfov/2), centre at the image middle), depth

@@ -461,6 +461,32 @@ int main(int argc, char **argv)
         ASSERT_INT_EQ(back, 2 * nrec + 3);
         ASSERT(fast < (2 * nrec + 3) / 30.0); /* faster than recorded */
         drv_source_close(s2);
+
+        /* recording again to the same name (as after the daemon reopens a lost camera) keeps the
+         * first file and writes rec-1.oni */
+        struct stat st0, st1;
+        ASSERT(stat(oni, &st0) == 0);
+        char oni1[4300];
+        snprintf(oni1, sizeof oni1, "%s/rec-1.oni", stage);
+        unlink(oni1);
+        snprintf(rspec, sizeof rspec,
+                 "openni2:meshsteer-testcam:%s?vanish=100&fps=30#width=640&height=480&record=%s", dir, oni);
+        ASSERT_OK(drv_source_open(rspec, &s2, err), err);
+        ASSERT_OK(drv_source_start(s2, err), err);
+        for (int it = 0, n1 = 0; it < 40 && n1 < 3; it++) {
+            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
+            int r = drv_source_read(s2, &fr, 500, err);
+            if (r == DRV_ETIMEOUT)
+                continue;
+            ASSERT_OK(r, err);
+            n1++;
+        }
+        drv_source_close(s2);
+        ASSERT(stat(oni, &st1) == 0);
+        ASSERT_INT_EQ((long)st1.st_size, (long)st0.st_size);
+        ASSERT(stat(oni1, &st1) == 0 && st1.st_size > 64 * 1024); /* 3 frames, compressed */
+        printf("a second recording to %s went to %s (%ld bytes)\n", oni, oni1, (long)st1.st_size);
+        unlink(oni1);
         unlink(oni);
 
         /* a driver without the cropping property would make an unplayable recording: refused */
