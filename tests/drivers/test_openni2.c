@@ -10,7 +10,8 @@
  * at speed=0; checks the error for a missing device; then runs meshsteerd (MESHSTEERD) with a
  * samba model driven by the depth labels (rigs/samba-depth.json) on the vanishing test camera and
  * watches /healthz show the loss and the recovery while frames keep coming, and SIGTERM end it
- * with status 0. */
+ * with status 0; the daemon's own recording of that camera (record=, continued in daemon-1.oni
+ * after the reopen) then plays back through a second meshsteerd to its end. */
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -102,6 +103,41 @@ static long json_long(const char *s, const char *key)
     return p ? strtol(p + strlen(k), NULL, 10) : -1;
 }
 
+static char daemon_log[4400];
+
+/* meshsteerd with a model and a source, on 127.0.0.1:port, its output to daemon_log */
+static pid_t start_daemon(const char *meshsteerd, const char *model, const char *spec, int port)
+{
+    char listen[64];
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+    snprintf(daemon_log, sizeof daemon_log, "%s/meshsteerd.log", stage);
+    pid_t pid = fork();
+    ASSERT(pid >= 0);
+    if (pid == 0) {
+        /* Under ASan: OpenNI2's C++ drivers leak a few objects per vanished device and are
+         * unloaded at oniShutdown, so LeakSanitizer cannot even name them (the suppression for
+         * libOpenNI2 does not match); the daemon's exit status is what this test checks. */
+        setenv("ASAN_OPTIONS", "detect_leaks=0", 1);
+        int fd = open(daemon_log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+            dup2(fd, 2);
+            dup2(fd, 1);
+        }
+        execl(meshsteerd, meshsteerd, "--model", model, "--source", spec, "--listen", listen,
+              "--log-level", "info", (char *)NULL);
+        _exit(127);
+    }
+    return pid;
+}
+
+static void show_log(void)
+{
+    char cmd[4500];
+    snprintf(cmd, sizeof cmd, "tail -20 %s >&2", daemon_log);
+    if (system(cmd) < 0)
+        perror("system");
+}
+
 static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
 {
     /* a model of the samba dancer driven by the six depth labels */
@@ -125,27 +161,13 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
     mdl_rig_destroy(rig);
     mdl_meshseq_destroy(seq);
 
-    char spec[4600], listen[64], log[4400];
-    snprintf(spec, sizeof spec, "openni2:meshsteer-testcam:%s?vanish=20&fps=30#width=640&height=480", dump);
+    char spec[9300], rec[4400];
+    snprintf(rec, sizeof rec, "%s/daemon.oni", stage);
+    unlink(rec);
+    snprintf(spec, sizeof spec,
+             "openni2:meshsteer-testcam:%s?vanish=20&fps=30#width=640&height=480&record=%s", dump, rec);
     int port = 20000 + (int)(getpid() % 20000);
-    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
-    snprintf(log, sizeof log, "%s/meshsteerd.log", stage);
-    pid_t pid = fork();
-    ASSERT(pid >= 0);
-    if (pid == 0) {
-        /* Under ASan: OpenNI2's C++ drivers leak a few objects per vanished device and are
-         * unloaded at oniShutdown, so LeakSanitizer cannot even name them (the suppression for
-         * libOpenNI2 does not match); the daemon's exit status is what this test checks. */
-        setenv("ASAN_OPTIONS", "detect_leaks=0", 1);
-        int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fd >= 0) {
-            dup2(fd, 2);
-            dup2(fd, 1);
-        }
-        execl(meshsteerd, meshsteerd, "--model", model, "--source", spec, "--listen", listen,
-              "--log-level", "info", (char *)NULL);
-        _exit(127);
-    }
+    pid_t pid = start_daemon(meshsteerd, model, spec, port);
     char body[8192];
     int seen_lost = 0, back = 0;
     long frames_at_loss = -1, last = -1;
@@ -169,16 +191,42 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
     kill(pid, SIGTERM);
     int st = 0;
     ASSERT(waitpid(pid, &st, 0) == pid);
-    if (!(seen_lost && back && last > frames_at_loss)) {
-        char cmd[4500];
-        snprintf(cmd, sizeof cmd, "tail -20 %s >&2", log);
-        if (system(cmd) < 0)
-            perror("system");
-    }
+    if (!(seen_lost && back && last > frames_at_loss))
+        show_log();
     ASSERT(seen_lost);
     ASSERT(back);
     ASSERT(last > frames_at_loss);
     ASSERT(WIFEXITED(st) && WEXITSTATUS(st) == 0);
+
+    /* what the daemon recorded plays back through it: the first file (up to the loss) once, to
+     * its end; the reopened camera went on in daemon-1.oni */
+    struct stat st1;
+    char rec1[4500];
+    snprintf(rec1, sizeof rec1, "%s/daemon-1.oni", stage);
+    ASSERT(stat(rec, &st1) == 0 && st1.st_size > 0);
+    ASSERT(stat(rec1, &st1) == 0 && st1.st_size > 0);
+    snprintf(spec, sizeof spec, "openni2:%s#loop=0", rec);
+    pid = start_daemon(meshsteerd, model, spec, port + 1);
+    int ended = 0;
+    last = -1;
+    for (int t = 0; t < 100 && !ended; t++) { /* up to 10 s */
+        usleep(100 * 1000);
+        if (http_get(port + 1, "/healthz", body, sizeof body) != 0)
+            continue;
+        last = json_long(body, "frames_synthesized");
+        ended = strstr(body, "\"state\":\"ended\"") != NULL;
+    }
+    printf("daemon: the recording played back, %s, %ld frames synthesised\n",
+           ended ? "to its end" : "did not end", last);
+    kill(pid, SIGTERM);
+    ASSERT(waitpid(pid, &st, 0) == pid);
+    if (!(ended && last >= 10))
+        show_log();
+    ASSERT(ended);
+    ASSERT(last >= 10);
+    ASSERT(WIFEXITED(st) && WEXITSTATUS(st) == 0);
+    unlink(rec);
+    unlink(rec1);
 }
 
 int main(int argc, char **argv)
