@@ -21,6 +21,7 @@
  * Usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16] [-p PORT]
  *                       [-H HOST] [-O ORIGIN] [-j] */
 #include <errno.h>
+#include <getopt.h>
 #include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
@@ -241,8 +242,20 @@ int main(int argc, char **argv)
     double secs = 10, warm = 1;
     const char *host = "127.0.0.1", *origin = NULL;
     R.encoding = "float32";
-    while ((opt = getopt(argc, argv, "n:t:w:e:p:H:O:jh")) != -1) {
+    static const struct option longopts[] = {{"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
+    while ((opt = getopt_long(argc, argv, "n:t:w:e:p:H:O:jh", longopts, NULL)) != -1) {
         switch (opt) {
+        case 'h':
+            printf("usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16]\n"
+                   "                      [-p PORT] [-H HOST] [-O ORIGIN] [-j]\n\n"
+                   "Opens CLIENTS WebSocket connections to meshsteerd (default 1, to 127.0.0.1:8080),\n"
+                   "subscribes each to the stream in the given encoding (default float32), discards\n"
+                   "the first WARMUP_S seconds (default 1), then counts frames for SECONDS (default\n"
+                   "10) and prints frames per second and the capture-to-receive latency (median,\n"
+                   "p99, max). -O sets the Origin header (default http://HOST:PORT); -j prints one\n"
+                   "JSON object. Exit status 0 when every client connected and was subscribed, 1 if\n"
+                   "not, 2 on bad usage.\n");
+            return 0;
         case 'n': n = atoi(optarg); break;
         case 't': secs = atof(optarg); break;
         case 'w': warm = atof(optarg); break;

@@ -186,6 +186,20 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
             back = 1;
     }
     printf("daemon: %s, %ld frames synthesised\n", back ? "recovered" : "did not recover", last);
+    /* a WebSocket client (as the viewer) receives the mesh frames after the recovery */
+    const char *load = getenv("MESHSTEER_LOAD");
+    if (load) {
+        char cmd[5000], out[2048] = "";
+        snprintf(cmd, sizeof cmd, "%s -n 1 -t 2 -w 0 -p %d -j", load, port);
+        FILE *p = popen(cmd, "r");
+        ASSERT(p);
+        size_t k = fread(out, 1, sizeof out - 1, p);
+        out[k] = 0;
+        ASSERT_INT_EQ(pclose(p), 0);
+        long received = json_long(out, "received");
+        printf("daemon: a WebSocket client received %ld mesh frames in 2 s\n", received);
+        ASSERT(received >= 3); /* the camera vanishes every 20 frames, for ~1 s */
+    }
     ASSERT(http_get(port, "/metrics", body, sizeof body) == 0);
     ASSERT(strstr(body, "meshsteer_frames_synthesized_total") != NULL);
     kill(pid, SIGTERM);
