@@ -9,7 +9,8 @@
  * too): pixel for pixel through the C API, at the recorded rate to its end (loop=0), and looping
  * at speed=0; checks the error for a missing device; then runs meshsteerd (MESHSTEERD) with a
  * samba model driven by the depth labels (rigs/samba-depth.json) on the vanishing test camera and
- * watches /healthz show the loss and the recovery while frames keep coming, and SIGTERM end it
+ * watches /healthz show the loss and the recovery while frames keep coming (a WebSocket client,
+ * meshsteer-load, receives the mesh frames after the recovery), and SIGTERM end it
  * with status 0; the daemon's own recording of that camera (record=, continued in daemon-1.oni
  * after the reopen) then plays back through a second meshsteerd to its end. */
 #include <arpa/inet.h>
