@@ -38,5 +38,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 abort(); /* the parser promised non-empty, bounded names */
     }
     srv_labels_destroy(l);
+    free(text);
     return 0;
 }
