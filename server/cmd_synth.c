@@ -1,6 +1,7 @@
 /* cmd_synth.c - `meshsteer synth`: drive a model with a marker recording (paper 2012 Sec. 5). */
 #include "cli.h"
 #include "cli_markers.h"
+#include "labels.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -15,13 +16,17 @@ static const char usage_text[] =
     "usage: meshsteer synth --model MODEL --markers FILE -o OUT.pc2 [options]\n"
     "\n"
     "Synthesises one mesh per marker frame. Markers are matched to the model by the rig's\n"
-    "'source' names. Invalid samples (occlusion) are held at their last position.\n"
+    "'source' names (or through --labels). Invalid samples (occlusion) are held at their last\n"
+    "position.\n"
     "\n"
     "  --model MODEL      a model written by 'meshsteer train'\n"
     "  --markers FILE     C3D, TRC, BVH or CSV marker recording\n"
     "  -o, --output FILE  the result as a PC2 point cache (opens in Blender)\n"
     "  --obj-dir DIR      also write every frame as DIR/NNNN.obj\n"
     "  --frames SPEC      which marker frames, a Python slice (default: all)\n"
+    "  --labels MAP       drive the model with other labels: MODEL=LABEL[,MODEL=LABEL...] maps\n"
+    "                     the rig's 'source' label MODEL to the file's marker LABEL (one LABEL\n"
+    "                     may feed several); labels not in the map match by their own name\n"
     "  --json             print statistics as JSON on stdout: timing, missing markers, output and\n"
     "                     input speed per frame, jitter, bounding box, non-finite values\n" CLI_MARKER_OPTS_HELP;
 
@@ -75,6 +80,11 @@ static int print_stats(const float *out, int nv, const mdl_markers *mk, const in
     }
     for (int i = 0; i < n; i++)
         for (int j = 0; j < nmap; j++) {
+            if (map[j] < 0) { /* not in the file: never valid */
+                memset(in + ((size_t)i * nmap + j) * 3, 0, 3 * sizeof(float));
+                iv[(size_t)i * nmap + j] = 0;
+                continue;
+            }
             size_t k = (size_t)idx[i] * mk->count + map[j];
             memcpy(in + ((size_t)i * nmap + j) * 3, mk->P + 3 * k, 3 * sizeof(float));
             iv[(size_t)i * nmap + j] = mk->valid[k];
@@ -126,17 +136,25 @@ static int print_stats(const float *out, int nv, const mdl_markers *mk, const in
     return js ? 0 : -1;
 }
 
+static void warn_labels(void *ud, const char *msg)
+{
+    (void)ud;
+    fprintf(stderr, "meshsteer synth: warning: --labels: %s\n", msg);
+}
+
 int cmd_synth(int argc, char **argv)
 {
     const char *cmd = "synth", *modelp = NULL, *mk = NULL, *outp = NULL, *objdir = NULL,
                *frames = NULL;
     mdl_marker_opts mo = {0, MDL_UP_AUTO};
-    enum { O_MODEL = 256, O_MARKERS, O_OBJDIR, O_FRAMES, O_MSCALE, O_MUP, O_JSON };
+    enum { O_MODEL = 256, O_MARKERS, O_OBJDIR, O_FRAMES, O_MSCALE, O_MUP, O_JSON, O_LABELS };
     int json = 0;
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},   {"markers", 1, 0, O_MARKERS},     {"output", 1, 0, 'o'},
         {"obj-dir", 1, 0, O_OBJDIR}, {"frames", 1, 0, O_FRAMES},      {"marker-scale", 1, 0, O_MSCALE},
-        {"marker-up", 1, 0, O_MUP}, {"json", 0, 0, O_JSON}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"marker-up", 1, 0, O_MUP}, {"json", 0, 0, O_JSON}, {"labels", 1, 0, O_LABELS},
+        {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    const char *labels = NULL;
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:h", lo, NULL)) != -1) {
@@ -147,6 +165,7 @@ int cmd_synth(int argc, char **argv)
         case O_OBJDIR: objdir = optarg; break;
         case O_FRAMES: frames = optarg; break;
         case O_JSON: json = 1; break;
+        case O_LABELS: labels = optarg; break;
         case O_MSCALE:
         case O_MUP:
             if (cli_marker_option(cmd, c == O_MSCALE ? "marker-scale" : "marker-up", optarg, &mo))
@@ -162,6 +181,9 @@ int cmd_synth(int argc, char **argv)
         return cli_usage_error(cmd, "--model, --markers and -o are required (see --help)");
 
     char err[MDL_ERR_LEN] = "";
+    srv_labels *lmap = NULL;
+    if (labels && srv_labels_create(labels, &lmap, err))
+        return cli_usage_error(cmd, "--labels: %s", err);
     int status = CLI_EXIT_USAGE, *idx = NULL, n = 0, *map = NULL;
     mdl_model *model = NULL;
     mdl_markers *markers = NULL;
@@ -188,11 +210,25 @@ int cmd_synth(int argc, char **argv)
         status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
         goto out;
     }
-    if (mdl_model_bind_markers(model, (const char *const *)markers->names, markers->count, map) > 0) {
-        for (int i = 0; i < info.nmarkers; i++)
-            if (map[i] < 0)
-                cli_fail(cmd, status, "%s has no marker '%s' (wanted by rig marker '%s')", mk,
-                         info.markers[i].source, info.markers[i].name);
+    /* markers the file lacks count as missing in every frame (as in meshsteerd); none bound, or
+     * no reference edge in any frame (below), is an error */
+    int unbound = srv_labels_bind(lmap, &info, (const char *const *)markers->names,
+                                  markers->count, map, warn_labels, NULL);
+    if (unbound < 0) {
+        status = cli_fail(cmd, CLI_EXIT_FAIL, "binding the markers: %s", strerror(-unbound));
+        goto out;
+    }
+    for (int i = 0; i < info.nmarkers; i++)
+        if (map[i] < 0)
+            fprintf(stderr, "meshsteer synth: %s%s has no marker '%s' (wanted by rig marker '%s')%s\n",
+                    unbound == info.nmarkers ? "" : "warning: ", mk,
+                    srv_labels_lookup(lmap, info.markers[i].source), info.markers[i].name,
+                    unbound == info.nmarkers ? "" : "; it counts as missing in every frame");
+    if (unbound == info.nmarkers) {
+        cli_fail(cmd, status,
+                 "%s: none of the model's %d markers is among the file's %d markers: map the "
+                 "rig's 'source' labels to the file's with --labels MODEL=LABEL,... (README, "
+                 "'Driving a model with other labels')", mk, info.nmarkers, markers->count);
         goto out;
     }
     if (mdl_synth_create(model, &s, err)) {
@@ -204,6 +240,11 @@ int cmd_synth(int argc, char **argv)
     for (int i = 0; i < n; i++) {
         int f = idx[i];
         for (int j = 0; j < info.nmarkers; j++) {
+            if (map[j] < 0) {
+                memset(P + 3 * j, 0, 3 * sizeof(float));
+                valid[j] = 0;
+                continue;
+            }
             size_t k = (size_t)f * markers->count + map[j];
             memcpy(P + 3 * j, markers->P + 3 * k, 3 * sizeof(float));
             valid[j] = markers->valid[k];
@@ -227,7 +268,14 @@ int cmd_synth(int argc, char **argv)
     }
     cli_progress_done();
     if (first < 0) {
-        status = cli_fail(cmd, CLI_EXIT_USAGE, "%s: the reference markers are never valid", mk);
+        if (unbound)
+            status = cli_fail(cmd, CLI_EXIT_USAGE,
+                              "%s: the reference markers are never valid (%d of the model's %d "
+                              "markers are not in the file: map the rig's 'source' labels to the "
+                              "file's with --labels MODEL=LABEL,...; README, 'Driving a model "
+                              "with other labels')", mk, unbound, info.nmarkers);
+        else
+            status = cli_fail(cmd, CLI_EXIT_USAGE, "%s: the reference markers are never valid", mk);
         goto out;
     }
     for (int i = 0; i < first; i++) /* frames before the reference appeared: the first result */
@@ -257,6 +305,7 @@ int cmd_synth(int argc, char **argv)
             outp, n, info.nv, med, p99, missing, held, lost);
     status = CLI_EXIT_OK;
 out:
+    srv_labels_destroy(lmap);
     mdl_synth_destroy(s);
     mdl_model_destroy(model);
     mdl_markers_destroy(markers);

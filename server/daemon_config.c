@@ -2,6 +2,7 @@
 #include "srv_err.h"
 #include "daemon_config.h"
 #include "encode.h"
+#include "labels.h"
 #include "log.h"
 
 #include <ctype.h>
@@ -13,6 +14,8 @@
 
 #define CFG_MAX_FILE (1u << 20)
 #define CFG_MAX_LINE 8192
+
+_Static_assert(sizeof(((srv_config *)0)->labels) == SRV_LABELS_MAX_LEN, "labels size");
 
 void srv_config_defaults(srv_config *c)
 {
@@ -147,6 +150,15 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
         c->log_level = l;
         return 0;
     }
+    if (!strcmp(key, "labels")) {
+        char e[MDL_ERR_LEN];
+        srv_labels *l;
+        int r = srv_labels_create(v, &l, e);
+        if (r)
+            return srv_err(err, r, "labels: %s", e);
+        srv_labels_destroy(l);
+        return set_str(c->labels, sizeof c->labels, key, v, err);
+    }
     if (!strcmp(key, "encoding")) {
         int e = srv_encoding_parse(v);
         if (e < 0)
@@ -156,7 +168,7 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
     }
     return srv_err(err, -ENOENT,
                    "unknown key '%s' (known: model, source, listen, record, max_clients, "
-                   "max_message, idle_timeout, token, origin, web_root, log_level, encoding)",
+                   "max_message, idle_timeout, token, origin, web_root, log_level, encoding, labels)",
                    key);
 }
 

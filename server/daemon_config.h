@@ -20,6 +20,8 @@
  *   web_root      directory served at / (default: the installed viewer)
  *   log_level     error | warn | notice | info | debug (default notice)
  *   encoding      default frame encoding for new clients: float32 | int16 (default float32)
+ *   labels        label map MODEL=LABEL[,MODEL=LABEL...]: the model's marker labels (the rig's
+ *                 `source`) driven by the source's labels (labels.h); default none (exact names)
  */
 #ifndef MESHSTEER_SERVER_DAEMON_CONFIG_H
 #define MESHSTEER_SERVER_DAEMON_CONFIG_H
@@ -43,6 +45,7 @@ typedef struct srv_config {
     char web_root[SRV_PATH_LEN];
     int log_level;  /* SRV_LOG_* */
     int encoding;   /* SRV_ENC_* (encode.h) */
+    char labels[4096]; /* label map text, validated (labels.h, SRV_LABELS_MAX_LEN); "" = none */
 } srv_config;
 
 void srv_config_defaults(srv_config *c);

@@ -48,6 +48,11 @@ static void usage(FILE *f)
             "      --origin any|same|LIST  Origin check for /stream (default any)\n"
             "      --web-root DIR      directory served at / (default: the built viewer)\n"
             "      --encoding float32|int16  default frame encoding\n"
+            "      --labels MAP        drive the model with other marker labels:\n"
+            "                          MODEL=LABEL[,MODEL=LABEL...], the rig's 'source' label\n"
+            "                          MODEL fed by the source's LABEL (one LABEL may feed\n"
+            "                          several); unmapped labels match by name. E.g. a model of\n"
+            "                          rigs/horse-human.json on a depth camera: see README\n"
             "      --log-level LEVEL   error, warn, notice (default), info, debug\n"
             "  -v, --verbose           --log-level info (twice: debug)\n"
             "      --check-config      validate the settings and exit\n"
@@ -96,7 +101,7 @@ static void tick(lws_sorted_usec_list_t *sul)
 static int parse_args(int argc, char **argv, srv_config *c, int *check_only)
 {
     enum { O_RECORD = 256, O_MAXC, O_MAXM, O_IDLE, O_TOKEN, O_ORIGIN, O_WEB, O_ENC, O_LOG, O_CHECK,
-           O_VERSION };
+           O_VERSION, O_LABELS };
     static const struct option opts[] = {
         {"model", required_argument, 0, 'm'},     {"source", required_argument, 0, 's'},
         {"listen", required_argument, 0, 'l'},    {"config", required_argument, 0, 'c'},
@@ -106,7 +111,8 @@ static int parse_args(int argc, char **argv, srv_config *c, int *check_only)
         {"web-root", required_argument, 0, O_WEB}, {"encoding", required_argument, 0, O_ENC},
         {"log-level", required_argument, 0, O_LOG}, {"verbose", no_argument, 0, 'v'},
         {"check-config", no_argument, 0, O_CHECK}, {"help", no_argument, 0, 'h'},
-        {"version", no_argument, 0, O_VERSION},   {0, 0, 0, 0},
+        {"version", no_argument, 0, O_VERSION},   {"labels", required_argument, 0, O_LABELS},
+        {0, 0, 0, 0},
     };
     /* flags override the file: collect them first, read the file, then apply them */
     const char *keys[64], *vals[64];
@@ -129,6 +135,7 @@ static int parse_args(int argc, char **argv, srv_config *c, int *check_only)
         case O_WEB: key = "web_root"; break;
         case O_ENC: key = "encoding"; break;
         case O_LOG: key = "log_level"; break;
+        case O_LABELS: key = "labels"; break;
         case 'v': verbose++; break;
         case O_CHECK: *check_only = 1; break;
         case 'h': usage(stdout); exit(0);
@@ -201,7 +208,9 @@ int main(int argc, char **argv)
     }
     srv_log(SRV_LOG_NOTICE, "source %s: %d markers at %g fps", d.cfg.source, src->count, src->fps);
     srv_bundle b;
-    if (srv_pipeline_load(d.cfg.model, src, d.cfg.source, 1, &b, err)) {
+    if (d.cfg.labels[0])
+        srv_log(SRV_LOG_NOTICE, "labels: %s", d.cfg.labels);
+    if (srv_pipeline_load(d.cfg.model, d.cfg.labels, src, d.cfg.source, 1, &b, err)) {
         srv_log(SRV_LOG_ERROR, "%s", err);
         drv_source_close(src);
         return 1;
@@ -270,7 +279,7 @@ int main(int argc, char **argv)
         if (sig_reload) {
             sig_reload = 0;
             sd_notify(0, "RELOADING=1");
-            int r = srv_pipeline_reload(d.pipe, d.cfg.model);
+            int r = srv_pipeline_reload(d.pipe, d.cfg.model, d.cfg.labels);
             if (r == -EBUSY)
                 srv_log(SRV_LOG_WARN, "SIGHUP: a reload is already running");
             else if (r)

@@ -2,6 +2,7 @@
 #include "srv_err.h"
 #include "pipeline.h"
 #include "daemon_config.h"
+#include "labels.h"
 #include "log.h"
 #include "record.h"
 
@@ -70,6 +71,7 @@ struct srv_pipeline {
     int reload_ok;
     char reload_err[SRV_ERR_LEN];
     char reload_path[SRV_PATH_LEN];
+    char reload_labels[SRV_LABELS_MAX_LEN];
     atomic_uint next_gen;
 };
 
@@ -95,37 +97,63 @@ void srv_bundle_fini(srv_bundle *b)
     memset(b, 0, sizeof *b);
 }
 
-int srv_pipeline_load(const char *model_path, const drv_source *src, const char *spec, uint32_t id,
-                      srv_bundle *out, char *err)
+static void warn_labels(void *ud, const char *msg)
+{
+    srv_log(SRV_LOG_WARN, "model %s: labels: %s", (const char *)ud, msg);
+}
+
+int srv_pipeline_load(const char *model_path, const char *labels, const drv_source *src,
+                      const char *spec, uint32_t id, srv_bundle *out, char *err)
 {
     memset(out, 0, sizeof *out);
     char e[MDL_ERR_LEN] = "";
-    mdl_model *model = NULL;
-    int r = mdl_model_load(model_path, &model, e);
+    srv_labels *lmap = NULL;
+    int r = srv_labels_create(labels, &lmap, e); /* validated with the settings already */
     if (r)
+        return srv_err(err, r, "labels: %s", e);
+    mdl_model *model = NULL;
+    r = mdl_model_load(model_path, &model, e);
+    if (r) {
+        srv_labels_destroy(lmap);
         return srv_err(err, r, "model: %s", e);
+    }
     mdl_model_info info;
     mdl_model_get_info(model, &info);
     int *map = calloc((size_t)(info.nmarkers > 0 ? info.nmarkers : 1), sizeof *map);
     if (!map) {
+        srv_labels_destroy(lmap);
         mdl_model_destroy(model);
         return srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
     }
-    r = mdl_model_bind_markers(model, (const char *const *)src->names, src->count, map);
+    r = srv_labels_bind(lmap, &info, (const char *const *)src->names, src->count, map, warn_labels,
+                        (void *)model_path);
     int bound = 0;
     for (int i = 0; r >= 0 && i < info.nmarkers; i++)
         bound += map[i] >= 0 && map[i] < src->count;
     if (r < 0 || bound == 0) {
         free(map);
+        srv_labels_destroy(lmap);
         mdl_model_destroy(model);
         return srv_err(err, r < 0 ? r : -ENOENT,
                       "model %s: none of its %d markers is among the source's %d markers "
-                      "(the rig's 'source' names must match the marker labels)",
+                      "(the rig's 'source' names must match the marker labels, or be mapped to "
+                      "them with --labels / 'labels = MODEL=LABEL,...')",
                       model_path, info.nmarkers, src->count);
     }
-    if (bound < info.nmarkers)
-        srv_log(SRV_LOG_WARN, "model %s: %d of %d markers are not in the source; they count as "
-                "missing", model_path, info.nmarkers - bound, info.nmarkers);
+    if (bound < info.nmarkers) {
+        char names[512];
+        size_t at = 0;
+        names[0] = '\0';
+        for (int i = 0; i < info.nmarkers && at < sizeof names; i++)
+            if (map[i] < 0) {
+                int w = snprintf(names + at, sizeof names - at, "%s%s", at ? ", " : "",
+                                 srv_labels_lookup(lmap, info.markers[i].source));
+                at += w > 0 ? (size_t)w : 0;
+            }
+        srv_log(SRV_LOG_WARN, "model %s: %d of %d markers are not in the source (%s); they count "
+                "as missing", model_path, info.nmarkers - bound, info.nmarkers, names);
+    }
+    srv_labels_destroy(lmap);
     srv_source_desc desc = {
         .spec = spec,
         .scheme = src->ops->scheme,
@@ -590,7 +618,7 @@ static void *reload_main(void *arg)
     srv_pipeline *p = arg;
     srv_bundle b;
     uint32_t id = atomic_fetch_add(&p->next_gen, 1);
-    int r = srv_pipeline_load(p->reload_path, p->src, p->spec, id, &b,
+    int r = srv_pipeline_load(p->reload_path, p->reload_labels, p->src, p->spec, id, &b,
                               p->reload_err);
     if (r == 0) {
         srv_bundle old;
@@ -606,11 +634,12 @@ static void *reload_main(void *arg)
     return NULL;
 }
 
-int srv_pipeline_reload(srv_pipeline *p, const char *model_path)
+int srv_pipeline_reload(srv_pipeline *p, const char *model_path, const char *labels)
 {
     if (atomic_load(&p->reload_state) != 0)
         return -EBUSY;
     snprintf(p->reload_path, sizeof p->reload_path, "%s", model_path);
+    snprintf(p->reload_labels, sizeof p->reload_labels, "%s", labels ? labels : "");
     p->reload_err[0] = '\0';
     atomic_store(&p->reload_state, 1);
     sigset_t all, old;

@@ -41,10 +41,11 @@ typedef struct srv_ctl_result {
     size_t len;
 } srv_ctl_result;
 
-/* Opens the model and binds it to the source's markers (no marker bound is an error).
- * `id` becomes the generation number. */
-int srv_pipeline_load(const char *model_path, const drv_source *src, const char *spec, uint32_t id,
-                      srv_bundle *out, char *err);
+/* Opens the model and binds it to the source's markers through the label map `labels` (labels.h;
+ * NULL or "" binds by exact names). No marker bound is an error; map entries that cannot take
+ * effect and unbound markers are logged as warnings. `id` becomes the generation number. */
+int srv_pipeline_load(const char *model_path, const char *labels, const drv_source *src,
+                      const char *spec, uint32_t id, srv_bundle *out, char *err);
 void srv_bundle_fini(srv_bundle *b);
 
 /* On success takes the source and the bundle (on failure the caller keeps both). record may be
@@ -66,8 +67,9 @@ int srv_pipeline_control(srv_pipeline *p, uint64_t tag, const srv_control *c);
 /* Takes one finished control result; returns 0 when there was none. */
 int srv_pipeline_result(srv_pipeline *p, srv_ctl_result *r);
 
-/* Starts a background reload of the model; -EBUSY if one is running. */
-int srv_pipeline_reload(srv_pipeline *p, const char *model_path);
+/* Starts a background reload of the model, bound through `labels` (may be NULL); -EBUSY if one is
+ * running. */
+int srv_pipeline_reload(srv_pipeline *p, const char *model_path, const char *labels);
 /* 1 once a reload has finished since the last call (*ok says whether it was swapped in). */
 int srv_pipeline_reload_done(srv_pipeline *p, int *ok, char *err);
 

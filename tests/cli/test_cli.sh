@@ -80,6 +80,45 @@ if [ -d "$data/meshes/horse-gallop" ]; then
         exit !(a[2] > -0.5) }' || fail "the hop leaves a sane box: $lo .. $hi"
     expect_status 0 "$ms" render --mesh "$dir/hop.pc2" --rest "$data/meshes/horse-gallop/0001.obj" \
         --frames 0:1102:92 -o "${MESHSTEER_BUILD:-$dir}/hop-contact-sheet.png"
+    # the BVH-trained puppet driven by the depth sources' marker set (head, lhand, rhand, lfoot,
+    # rfoot, torso) through the README's label map: the samba dancer's rig vertices as markers
+    if [ -f "$data/meshes/samba/samba.pc2" ]; then
+        expect_status 0 "$ms" markers --mesh "$data/meshes/samba/samba.pc2" \
+            --rest "$data/meshes/samba/rest.obj" --rig "$src/rigs/samba-depth.json" -o "$dir/depth.csv"
+        head -1 "$dir/depth.csv" | grep -q "torso_x,.*lhand_x,.*rfoot_z" || fail "depth.csv header"
+        # without a map the reference markers (Hips, Neck, LeftShoulder) are absent: refused
+        expect_status 2 "$ms" synth --model "$dir/puppet.msm" --markers "$dir/depth.csv" -o "$dir/d.pc2"
+        grep -q -- "--labels" "$dir/err" || fail "the unbound puppet's error does not mention --labels"
+        grep -q "no marker 'Hips'" "$dir/err" || fail "the missing Hips are not named"
+        expect_status 2 "$ms" synth --model "$dir/puppet.msm" --markers "$dir/depth.csv" \
+            -o "$dir/d.pc2" --labels "Hips=torso,Neck=head,LeftShoulder"
+        grep -q "entry 3 'LeftShoulder': expected MODEL=LABEL" "$dir/err" || fail "bad map message"
+        expect_status 2 "$ms" synth --model "$dir/puppet.msm" --markers "$dir/depth.csv" \
+            -o "$dir/d.pc2" --labels "Hips=torso,Hips=head"
+        grep -q "already mapped by entry 1" "$dir/err" || fail "duplicate model label accepted"
+        sed '1s/\([a-z]*\)_\([xyz]\)/cam\1_\2/g' "$dir/depth.csv" >"$dir/cam.csv" # camhead_x, ...
+        expect_status 2 "$ms" synth --model "$dir/puppet.msm" --markers "$dir/cam.csv" -o "$dir/d.pc2"
+        grep -q "none of the model's 8 markers is among the file's 6 markers.*--labels" "$dir/err" ||
+            fail "a model with no marker in the file: the error does not mention --labels"
+        map="Hips=torso,Neck=head,LeftToe_End=lfoot,RightToe_End=rfoot,LeftShoulder=lhand,Tail=torso"
+        expect_status 0 "$ms" synth --model "$dir/puppet.msm" --markers "$dir/depth.csv" \
+            -o "$dir/d.pc2" --labels "$map" --json
+        cp "$dir/out" "$dir/d.json"
+        grep -q "no marker 'Head_End'.*counts as missing" "$dir/err" ||
+            fail "the unmapped Head_End is not reported missing"
+        grep -q "warning: --labels: label map entry 6 'Tail=torso'" "$dir/err" ||
+            fail "no warning for a map entry the model does not use"
+        [ "$(json_num "$dir/d.json" frames)" = "175" ] || fail "depth-driven synth: frame count"
+        [ "$(json_num "$dir/d.json" nonfinite)" = "0" ] || fail "depth-driven synth: non-finite"
+        [ "$(json_num "$dir/d.json" frames_without_reference)" = "0" ] ||
+            fail "depth-driven synth: frames without reference edge"
+        lo=$(grep '"bbox_min"' "$dir/d.json" | grep -o '\[.*\]' | tr -d '[] \t')
+        hi=$(grep '"bbox_max"' "$dir/d.json" | grep -o '\[.*\]' | tr -d '[] \t')
+        awk -v lo="$lo" -v hi="$hi" 'BEGIN { split(lo, a, ","); split(hi, b, ",");
+            for (i = 1; i <= 3; i++) if (b[i] - a[i] > 10 || b[i] - a[i] <= 0) exit 1;
+            exit !(a[2] > -0.5 && b[2] < 3) }' || fail "the depth-driven horse leaves a sane box: $lo .. $hi"
+        echo "depth labels -> puppet: box $lo .. $hi"
+    fi
 fi
 
 # issue 4's acceptance: markers from the test camera's depth of the samba dancer (2.5 m, facing)

@@ -13,6 +13,10 @@
  *   idle     --idle-timeout 2: a client that accepts no frame is closed, a reading one is not
  *   config   -c FILE round trip through the binary: the file's settings take effect, flags
  *            override them, --check-config accepts it and names FILE:LINE for bad ones
+ *   labels   a replay source whose marker labels are renamed (cam_<name>): refused without a label
+ *            map (the error mentions --labels), streams with --labels <name>=cam_<name>,... (an
+ *            unused entry logged as a warning), and keeps the map over a SIGHUP reload; the same
+ *            map from a config file's `labels =`
  *   horse    real data: a model trained on shared/data/meshes/horse-gallop (meshsteer train)
  *            replaying its own rig markers at 60 Hz (meshsteer markers); hello, topology and
  *            frames of the horse's 8,431 vertices, each frame close to the ground-truth mesh of
@@ -659,6 +663,121 @@ static void scenario_config(void)
     ASSERT(strstr(out, "absent.conf: No such file"));
 }
 
+/* ------------------------------------------------------------------ labels */
+
+/* dir/cam.csv: trot.csv with every marker column renamed cam_<name>_<axis>; the map
+ * "<source>=cam_<source>,..." of the model's markers (plus an entry the model does not use). */
+static void write_renamed(char *map, size_t cap)
+{
+    char from[1200], to[1200], line[8192], model[1200], err[MDL_ERR_LEN];
+    snprintf(from, sizeof from, "%s/trot.csv", H.dir);
+    snprintf(to, sizeof to, "%s/cam.csv", H.dir);
+    FILE *in = fopen(from, "r"), *out = fopen(to, "w");
+    ASSERT(in && out);
+    ASSERT(fgets(line, sizeof line, in));
+    int col = 0;
+    for (char *save = NULL, *t = strtok_r(line, ",\n", &save); t; t = strtok_r(NULL, ",\n", &save))
+    {
+        fprintf(out, "%s%s%s", col ? "," : "", col >= 2 ? "cam_" : "", t);
+        col++;
+    }
+    fputc('\n', out);
+    ASSERT(col > 2);
+    size_t n;
+    char buf[65536];
+    while ((n = fread(buf, 1, sizeof buf, in)) > 0)
+        ASSERT(fwrite(buf, 1, n, out) == n);
+    fclose(in);
+    ASSERT(fclose(out) == 0);
+
+    snprintf(model, sizeof model, "%s/model.msm", H.dir);
+    mdl_model *m;
+    ASSERT_OK(mdl_model_load(model, &m, err), err);
+    mdl_model_info info;
+    mdl_model_get_info(m, &info);
+    size_t at = (size_t)snprintf(map, cap, "nosuch=cam_x");
+    for (int i = 0; i < info.nmarkers; i++) {
+        int dup = 0;
+        for (int j = 0; j < i; j++)
+            dup |= !strcmp(info.markers[j].source, info.markers[i].source);
+        if (!dup)
+            at += (size_t)snprintf(map + at, cap - at, ",%s=cam_%s", info.markers[i].source,
+                                   info.markers[i].source);
+        ASSERT(at < cap);
+    }
+    mdl_model_destroy(m);
+}
+
+static void scenario_labels(void)
+{
+    char map[2048], model[1200], source[1200], log[1200], out[4096];
+    write_renamed(map, sizeof map);
+    snprintf(model, sizeof model, "%s/model.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/cam.csv?loop=1", H.dir);
+
+    /* without a map nothing binds: the daemon refuses to start and points to --labels */
+    const char *plain[] = {meshsteerd, "--model", model, "--source", source, "--listen",
+                           "127.0.0.1:0", NULL};
+    snprintf(log, sizeof log, "%s/plain.log", H.dir);
+    ASSERT_INT_EQ(harness_run(plain, log), 1);
+    FILE *f = fopen(log, "r");
+    ASSERT(f);
+    size_t got = fread(out, 1, sizeof out - 1, f);
+    out[got] = '\0';
+    fclose(f);
+    if (!strstr(out, "none of its") || !strstr(out, "--labels")) {
+        fprintf(stderr, "expected the unbound error to mention --labels: %s\n", out);
+        exit(1);
+    }
+    printf("labels: without a map the renamed source is refused with a hint to --labels\n");
+
+    /* a bad map is a usage error naming the entry */
+    const char *bad[] = {"--model", model, "--source", source, "--labels", "a=b,c", NULL};
+    ASSERT_INT_EQ(check_config(bad, out, sizeof out), 2);
+    ASSERT(strstr(out, "entry 2 'c': expected MODEL=LABEL"));
+
+    /* with the map: streams, warns about the unused entry, keeps the map over SIGHUP */
+    const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0",
+                          "--labels", map, NULL};
+    harness_start(&H, meshsteerd, args);
+    char *body = NULL;
+    ASSERT_INT_EQ(harness_get(&H, "/healthz", &body), 200);
+    free(body);
+    ASSERT(harness_log_has(&H, "label map entry 1 'nosuch=cam_x': no marker of the model"));
+    ASSERT(!harness_log_has(&H, "count as missing"));
+    struct lws_context *ctx = wsc_context();
+    wsc *a = wsc_connect(ctx, H.port, NULL, 0);
+    run_until(ctx, a, 10, 0, 15000);
+    kill(H.pid, SIGHUP);
+    want wh = {a, 0, 0, 2, 0, -1};
+    ASSERT(wsc_run(ctx, 20000, enough, &wh));
+    run_until(ctx, a, a->total_frames + 5, 0, 5000);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_total"), 1);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(a);
+    printf("labels: --labels binds the renamed source; the map holds over a SIGHUP reload\n");
+
+    /* the same map from the config file */
+    char conf[1200], ctext[8192];
+    snprintf(conf, sizeof conf, "%s/labels.conf", H.dir);
+    snprintf(ctext, sizeof ctext, "model = %s\nsource = %s\nlisten = 127.0.0.1:0\nlabels = %s\n",
+             model, source, map);
+    write_file(conf, ctext);
+    const char *cargs[] = {"-c", conf, NULL};
+    harness_start(&H, meshsteerd, cargs);
+    ctx = wsc_context();
+    a = wsc_connect(ctx, H.port, NULL, 0);
+    run_until(ctx, a, 10, 0, 15000);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(a);
+    expect_config_error("labels_bad.conf", "model = m.msm\nsource = replay:x.csv\nlabels = Hips=torso,Hips=head\n",
+                        NULL, "labels_bad.conf:3: labels: entry 2 'Hips=head': model label 'Hips' is "
+                              "already mapped by entry 1");
+    printf("labels: 'labels =' in the config file works the same\n");
+}
+
 /* ------------------------------------------------------------------ horse (real data) */
 
 static int run_cli(const char *const *argv)
@@ -862,7 +981,7 @@ int main(int argc, char **argv)
 {
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
-                        "stream|slow|record|limits|origin|idle|config|horse [MESHSTEER]\n");
+                        "stream|slow|record|limits|origin|idle|config|labels|horse [MESHSTEER]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
@@ -890,6 +1009,8 @@ int main(int argc, char **argv)
         scenario_idle();
     else if (!strcmp(argv[3], "config"))
         scenario_config();
+    else if (!strcmp(argv[3], "labels"))
+        scenario_labels();
     else if (!strcmp(argv[3], "horse"))
         scenario_horse(argv[4]);
     else

@@ -33,6 +33,7 @@ int main(void)
                        "origin = http://localhost:9000, https://example.org\n"
                        "log_level = debug\n"
                        "encoding = int16\n"
+                       "labels = Hips=torso, Neck=head   # the depth camera's labels\n"
                        "token = s3cret";
     ASSERT_OK(parse(&c, good, err), err);
     ASSERT(!strcmp(c.model, "/var/lib/meshsteer/horse.msm"));
@@ -44,6 +45,7 @@ int main(void)
     ASSERT_INT_EQ(c.log_level, SRV_LOG_DEBUG);
     ASSERT_INT_EQ(c.encoding, SRV_ENC_INT16);
     ASSERT(!strcmp(c.token, "s3cret"));
+    ASSERT(!strcmp(c.labels, "Hips=torso, Neck=head"));
     ASSERT_OK(srv_config_validate(&c, err), err);
 
     /* errors name file:line and leave the old settings untouched */
@@ -63,6 +65,11 @@ int main(void)
         {"source = \"replay:x\n", "t.conf:1: unbalanced quote"},
         {" = 3\n", "t.conf:1: missing key"},
         {"model =\n", "t.conf:1: model: empty path"},
+        {"model = a\nlabels = Hips=torso,Neck=head,LeftHand\n",
+         "t.conf:2: labels: entry 3 'LeftHand': expected MODEL=LABEL (column 22)"},
+        {"labels = Hips=torso,Hips=head\n", "t.conf:1: labels: entry 2 'Hips=head': model label "
+                                             "'Hips' is already mapped by entry 1"},
+        {"labels = =torso\n", "t.conf:1: labels: entry 1 '=torso': empty model label"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         err[0] = '\0';
@@ -85,6 +92,15 @@ int main(void)
     ASSERT(!strcmp(c.listen_host, "::1"));
     ASSERT_INT_EQ(c.port, 7000);
     ASSERT(srv_config_set(&c, "max_clients", "20000", err) == -ERANGE);
+    ASSERT_OK(srv_config_set(&c, "labels", "LeftToe_End=lfoot", err), err);
+    ASSERT(!strcmp(c.labels, "LeftToe_End=lfoot"));
+    ASSERT_OK(srv_config_set(&c, "labels", "", err), err); /* clears the map */
+    ASSERT(!strcmp(c.labels, ""));
+    static char big[5000];
+    memset(big, 'x', sizeof big - 1);
+    big[1] = '=';
+    ASSERT(srv_config_set(&c, "labels", big, err) == -ENAMETOOLONG);
+    ASSERT(strstr(err, "labels: longer than 4095 characters"));
 
     /* srv_config_read: a missing file names it */
     ASSERT(srv_config_read(&c, "/nonexistent/meshsteerd.conf", err) == -ENOENT);
