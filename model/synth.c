@@ -62,6 +62,8 @@ struct mdl_synth {
     double *mb;                /* nmarkers x 3: markers in the body frame */
     uint8_t *mvalid;           /* nmarkers: valid in this frame (not held) */
     int *imk_off, *imk_local, *imk_marker; /* markers on each instance: local vertex, marker */
+    int *need_off, *need;      /* per instance: the local vertices alignment and shape steps read
+                                * (its overlap vertices and marker vertices), ascending */
 };
 
 void mdl_synth_destroy(mdl_synth *s)
@@ -97,6 +99,8 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->imk_off);
     free(s->imk_local);
     free(s->imk_marker);
+    free(s->need_off);
+    free(s->need);
     free(s);
 }
 
@@ -191,11 +195,30 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
             s->imk_off[i + 1] = e;
         }
     }
+    s->need_off = mdl__calloc((size_t)NI + 1, sizeof(int));
+    s->need = mdl__calloc((size_t)m->sov_off[NI] + (size_t)NI * nm + 1, sizeof(int));
+    uint8_t *mark = mdl__calloc((size_t)maxn, 1);
+    if (s->need_off && s->need && mark && s->imk_off && s->imk_local) {
+        int e = 0;
+        for (int i = 0; i < NI; i++) {
+            int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
+            memset(mark, 0, (size_t)n);
+            for (int o = m->sov_off[i]; o < m->sov_off[i + 1]; o++)
+                mark[m->sov[o]] = 1;
+            for (int k = s->imk_off[i]; k < s->imk_off[i + 1]; k++)
+                mark[s->imk_local[k]] = 1;
+            for (int j = 0; j < n; j++)
+                if (mark[j])
+                    s->need[e++] = j;
+            s->need_off[i + 1] = e;
+        }
+    }
+    free(mark);
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
     if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq || !s->iRp || !s->shared ||
         !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->pos || !s->loc || !s->flam || !s->iw ||
         !s->acc || !s->cnt || !s->rhs || !s->mb ||
-        !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker) {
+        !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker || !s->need_off || !s->need) {
         mdl_synth_destroy(s);
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     }
@@ -223,6 +246,33 @@ static void update_local(mdl_synth *s, int i)
     for (int a = 0; a < k; a++)
         lam[a] = (float)s->lam[s->inst_lam[i] + a];
     mdl_la_sgemv('N', n3, k, 1.0f, m->part_modes + m->pm_off[p], n3, lam, 1.0f, loc);
+}
+
+/* The same for only the vertices the alignment and shape steps read (need): the full local
+ * shape is needed only by the final blend. */
+static void update_local_needed(mdl_synth *s, int i)
+{
+    const struct mdl_model *m = s->m;
+    int p = m->inst_part[i], k = m->pmodes[p], n3 = 3 * (m->pv_off[p + 1] - m->pv_off[p]);
+    float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
+    const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
+    const float *V = m->part_modes + m->pm_off[p];
+    float *lam = s->flam;
+    for (int a = 0; a < k; a++)
+        lam[a] = (float)s->lam[s->inst_lam[i] + a];
+    for (int e = s->need_off[i]; e < s->need_off[i + 1]; e++) {
+        int j3 = 3 * s->need[e];
+        float x = mean[j3], y = mean[j3 + 1], z = mean[j3 + 2];
+        for (int a = 0; a < k; a++) {
+            const float *va = V + (size_t)a * n3 + j3;
+            x += va[0] * lam[a];
+            y += va[1] * lam[a];
+            z += va[2] * lam[a];
+        }
+        loc[j3] = x;
+        loc[j3 + 1] = y;
+        loc[j3 + 2] = z;
+    }
 }
 
 /* Places instance i's vertices R loc + t into pos: only those shared with other instances (all
@@ -415,7 +465,7 @@ static void optimise_shapes(mdl_synth *s)
             memcpy(s->lam + s->inst_lam[i], s->rhs, sizeof(double) * (size_t)k);
     }
     for (int i = 0; i < m->ninst; i++)
-        update_local(s, i);
+        update_local_needed(s, i);
 }
 
 int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, float *Vout,
@@ -505,7 +555,7 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
     s->have_prev = 1;
     /* 3. alternate alignment and shape optimisation */
     for (int i = 0; i < m->ninst; i++)
-        update_local(s, i);
+        update_local_needed(s, i);
     align_all(s, m->iterations > 0 ? 1 : m->relax);
     for (int it = 0; it < m->iterations; it++) {
         optimise_shapes(s);
@@ -535,6 +585,7 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
     }
     memset(Vout, 0, sizeof(float) * 3 * (size_t)m->nv);
     for (int i = 0; i < m->ninst; i++) {
+        update_local(s, i); /* the full local shape, needed only here */
         const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
         float W[9], tw[3];
         for (int r = 0; r < 3; r++) {
