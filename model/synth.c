@@ -52,7 +52,6 @@ struct mdl_synth {
     double *lam, *lamp;        /* per instance modes (offset inst_lam) */
     int *inst_lam;             /* ninst + 1 */
     int *inst_pos;             /* ninst + 1: offsets (in vertices) into pos */
-    float *pos;                /* positions of every instance's vertices, body frame */
     float *loc;                /* local shapes (eq. 6) of every instance's vertices */
     float *flam;               /* max modes, float copy of lambda for sgemv */
     float *iw;                 /* blend weight (eq. 8) of every instance vertex, instance-major */
@@ -62,8 +61,13 @@ struct mdl_synth {
     double *mb;                /* nmarkers x 3: markers in the body frame */
     uint8_t *mvalid;           /* nmarkers: valid in this frame (not held) */
     int *imk_off, *imk_local, *imk_marker; /* markers on each instance: local vertex, marker */
-    int *need_off, *need;      /* per instance: the local vertices alignment and shape steps read
-                                * (its overlap vertices and marker vertices), ascending */
+    /* the overlap entries (m->sov, per instance sov_off), compact: all the alignment and shape
+     * steps read of an instance's vertices besides its markers */
+    int *sov_v;                /* global vertex of each entry */
+    double *sov_inv;           /* 1 / (number of other instances holding it), 0 if none */
+    double *sloc, *spos;       /* 3 per entry: local shape, placed position (body frame) */
+    int *oov_e;                /* m->order_ov as entries of sov */
+    double *ymom;              /* per instance: sum y (3) and sum |y|^2 over its entries */
 };
 
 void mdl_synth_destroy(mdl_synth *s)
@@ -87,7 +91,6 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->lamp);
     free(s->inst_lam);
     free(s->inst_pos);
-    free(s->pos);
     free(s->loc);
     free(s->flam);
     free(s->iw);
@@ -99,8 +102,12 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->imk_off);
     free(s->imk_local);
     free(s->imk_marker);
-    free(s->need_off);
-    free(s->need);
+    free(s->sov_v);
+    free(s->sov_inv);
+    free(s->sloc);
+    free(s->spos);
+    free(s->oov_e);
+    free(s->ymom);
     free(s);
 }
 
@@ -166,7 +173,6 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
         }
     s->lam = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
     s->lamp = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
-    s->pos = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
     s->loc = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
     s->flam = mdl__calloc((size_t)maxk, sizeof(float));
     s->iw = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(float));
@@ -195,30 +201,45 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
             s->imk_off[i + 1] = e;
         }
     }
-    s->need_off = mdl__calloc((size_t)NI + 1, sizeof(int));
-    s->need = mdl__calloc((size_t)m->sov_off[NI] + (size_t)NI * nm + 1, sizeof(int));
-    uint8_t *mark = mdl__calloc((size_t)maxn, 1);
-    if (s->need_off && s->need && mark && s->imk_off && s->imk_local) {
-        int e = 0;
-        for (int i = 0; i < NI; i++) {
-            int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
-            memset(mark, 0, (size_t)n);
-            for (int o = m->sov_off[i]; o < m->sov_off[i + 1]; o++)
-                mark[m->sov[o]] = 1;
-            for (int k = s->imk_off[i]; k < s->imk_off[i + 1]; k++)
-                mark[s->imk_local[k]] = 1;
-            for (int j = 0; j < n; j++)
-                if (mark[j])
-                    s->need[e++] = j;
-            s->need_off[i + 1] = e;
+    int nsov = m->sov_off[NI];
+    s->sov_v = mdl__calloc((size_t)nsov + 1, sizeof(int));
+    s->sov_inv = mdl__calloc((size_t)nsov + 1, sizeof(double));
+    s->sloc = mdl__calloc((size_t)nsov * 3 + 1, sizeof(double));
+    s->spos = mdl__calloc((size_t)nsov * 3 + 1, sizeof(double));
+    s->oov_e = mdl__calloc((size_t)m->order_ov_off[NI] + 1, sizeof(int));
+    s->ymom = mdl__calloc((size_t)NI * 4, sizeof(double));
+    int *ctot = mdl__calloc((size_t)m->nv, sizeof(int));
+    if (s->sov_v && s->sov_inv && s->oov_e && ctot) {
+        for (int i = 0; i < NI; i++)
+            for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+                s->sov_v[e] = m->pv_idx[m->pv_off[m->inst_part[i]] + m->sov[e]];
+                ctot[s->sov_v[e]]++;
+            }
+        for (int e = 0; e < nsov; e++)
+            s->sov_inv[e] = ctot[s->sov_v[e]] > 1 ? 1.0 / (ctot[s->sov_v[e]] - 1) : 0;
+        for (int step = 0; step < NI; step++) { /* order_ov is a subset of sov (train.c) */
+            int i = m->order[step];
+            for (int o = m->order_ov_off[step]; o < m->order_ov_off[step + 1]; o++) {
+                int e = m->sov_off[i];
+                while (e < m->sov_off[i + 1] && m->sov[e] != m->order_ov[o])
+                    e++;
+                if (e == m->sov_off[i + 1]) {
+                    free(ctot);
+                    mdl_synth_destroy(s);
+                    return mdl__err(err, -EINVAL, "synth: model's greedy overlap vertex %d of instance %d "
+                                    "is not among its overlap vertices", m->order_ov[o], i);
+                }
+                s->oov_e[o] = e;
+            }
         }
     }
-    free(mark);
+    free(ctot);
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
     if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq || !s->iRp || !s->shared ||
-        !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->pos || !s->loc || !s->flam || !s->iw ||
+        !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->loc || !s->flam || !s->iw ||
         !s->acc || !s->cnt || !s->rhs || !s->mb ||
-        !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker || !s->need_off || !s->need) {
+        !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker || !s->sov_v || !s->sov_inv ||
+        !s->sloc || !s->spos || !s->oov_e || !s->ymom) {
         mdl_synth_destroy(s);
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     }
@@ -248,8 +269,11 @@ static void update_local(mdl_synth *s, int i)
     mdl_la_sgemv('N', n3, k, 1.0f, m->part_modes + m->pm_off[p], n3, lam, 1.0f, loc);
 }
 
-/* The same for only the vertices the alignment and shape steps read (need): the full local
- * shape is needed only by the final blend. */
+/* The same for only the vertices the alignment and shape steps read: the overlap vertices, into
+ * the compact sloc (one entry per sov entry), and the marker vertices, into loc. The full local
+ * shape is needed only by the final blend. Also the moments of the overlap vertices' local
+ * positions (sum y, sum |y|^2 over the entries with other instances), which the relaxation
+ * sweeps reuse until the next shape step. */
 static void update_local_needed(mdl_synth *s, int i)
 {
     const struct mdl_model *m = s->m;
@@ -260,8 +284,34 @@ static void update_local_needed(mdl_synth *s, int i)
     float *lam = s->flam;
     for (int a = 0; a < k; a++)
         lam[a] = (float)s->lam[s->inst_lam[i] + a];
-    for (int e = s->need_off[i]; e < s->need_off[i + 1]; e++) {
-        int j3 = 3 * s->need[e];
+    double sy0 = 0, sy1 = 0, sy2 = 0, syy = 0;
+    for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+        int j3 = 3 * m->sov[e];
+        float x = mean[j3], y = mean[j3 + 1], z = mean[j3 + 2];
+        for (int a = 0; a < k; a++) {
+            const float *va = V + (size_t)a * n3 + j3;
+            x += va[0] * lam[a];
+            y += va[1] * lam[a];
+            z += va[2] * lam[a];
+        }
+        double *o = s->sloc + 3 * (size_t)e;
+        o[0] = x;
+        o[1] = y;
+        o[2] = z;
+        if (s->sov_inv[e] > 0) {
+            sy0 += x;
+            sy1 += y;
+            sy2 += z;
+            syy += (double)x * x + (double)y * y + (double)z * z;
+        }
+    }
+    double *ym = s->ymom + 4 * i;
+    ym[0] = sy0;
+    ym[1] = sy1;
+    ym[2] = sy2;
+    ym[3] = syy;
+    for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++) {
+        int j3 = 3 * s->imk_local[e];
         float x = mean[j3], y = mean[j3 + 1], z = mean[j3 + 2];
         for (int a = 0; a < k; a++) {
             const float *va = V + (size_t)a * n3 + j3;
@@ -275,87 +325,50 @@ static void update_local_needed(mdl_synth *s, int i)
     }
 }
 
-/* Places instance i's vertices R loc + t into pos: only those shared with other instances (all
- * that the alignment and shape steps read) unless `all`. mode 1 adds them to acc/cnt, mode 2
- * replaces the instance's previous contribution there, mode 0 leaves acc alone. */
-static void inst_emit(mdl_synth *s, int i, int mode, int all)
+/* Places instance i's overlap vertices R loc + t into spos (all that the alignment and shape
+ * steps read of its placement). `add` 1 adds them to acc/cnt (greedy pass), 0 replaces the
+ * instance's previous contribution there (acc += new - old). */
+static void inst_emit(mdl_synth *s, int i, int add)
 {
     const struct mdl_model *m = s->m;
-    int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
     const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
-    float Rf[9], tf[3];
-    for (int r = 0; r < 9; r++)
-        Rf[r] = (float)R[r];
-    for (int r = 0; r < 3; r++)
-        tf[r] = (float)t[r];
-    float *out = s->pos + 3 * (size_t)s->inst_pos[i];
-    const float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
-    const int *idx = m->pv_idx + m->pv_off[p];
-    const int *list = m->sov + m->sov_off[i];
-    int cnt = all ? n : m->sov_off[i + 1] - m->sov_off[i];
-    for (int e = 0; e < cnt; e++) {
-        int j = all ? e : list[e];
-        const float *y = loc + 3 * j;
-        float *o = out + 3 * j;
-        if (mode == 2) {
-            double *a = s->acc + 3 * (size_t)idx[j];
-            a[0] -= o[0];
-            a[1] -= o[1];
-            a[2] -= o[2];
+    const double R0 = R[0], R1 = R[1], R2 = R[2], R3 = R[3], R4 = R[4], R5 = R[5], R6 = R[6],
+                 R7 = R[7], R8 = R[8], t0 = t[0], t1 = t[1], t2 = t[2];
+    const int *sv = s->sov_v;
+    double *restrict acc = s->acc;
+    for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+        const double *y = s->sloc + 3 * (size_t)e;
+        double *o = s->spos + 3 * (size_t)e;
+        double *a = acc + 3 * (size_t)sv[e];
+        double n0 = R0 * y[0] + R1 * y[1] + R2 * y[2] + t0;
+        double n1 = R3 * y[0] + R4 * y[1] + R5 * y[2] + t1;
+        double n2 = R6 * y[0] + R7 * y[1] + R8 * y[2] + t2;
+        if (add) {
+            a[0] += n0;
+            a[1] += n1;
+            a[2] += n2;
+            s->cnt[sv[e]]++;
+        } else {
+            a[0] += n0 - o[0];
+            a[1] += n1 - o[1];
+            a[2] += n2 - o[2];
         }
-        o[0] = Rf[0] * y[0] + Rf[1] * y[1] + Rf[2] * y[2] + tf[0];
-        o[1] = Rf[3] * y[0] + Rf[4] * y[1] + Rf[5] * y[2] + tf[1];
-        o[2] = Rf[6] * y[0] + Rf[7] * y[1] + Rf[8] * y[2] + tf[2];
-        if (mode) {
-            double *a = s->acc + 3 * (size_t)idx[j];
-            a[0] += o[0];
-            a[1] += o[1];
-            a[2] += o[2];
-            if (mode == 1)
-                s->cnt[idx[j]]++;
-        }
+        o[0] = n0;
+        o[1] = n1;
+        o[2] = n2;
     }
 }
 
 /* Weighted absolute orientation of instance i onto targets, with its predicted rotation as a prior
- * (rigid.h): the n local vertices `ov` go to the mean position the other instances give them (all
- * placed instances when `self_in_acc` is 0; all but i itself when 1), and the instance's markers
- * (when the model uses them) to the markers' positions. Without any target the prediction stays. */
-static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_in_acc)
+ * (rigid.h), from the moments of its overlap vertices y and their targets x (ws = sum w,
+ * sy = sum w y, sx = sum w x, syx = sum w y x^T, syy = sum w |y|^2): the instance's markers (when
+ * the model uses them) are added as targets at the markers' positions. Without any target the
+ * prediction stays. */
+static void align_solve(mdl_synth *s, int i, double ws, double sy[3], double sx[3], double syx[9],
+                        double syy)
 {
     const struct mdl_model *m = s->m;
-    int p = m->inst_part[i];
-    const int *idx = m->pv_idx + m->pv_off[p];
-    const float *own = s->pos + 3 * (size_t)s->inst_pos[i];
     const float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
-    /* one pass of weighted moments: sum w, sum w y, sum w x, sum w y x^T, sum w |y|^2 */
-    double ws = 0, sy[3] = {0}, sx[3] = {0}, syx[9] = {0}, syy = 0;
-    for (int o = 0; o < n; o++) {
-        int j = ov[o], v = idx[j], c = s->cnt[v] - self_in_acc;
-        if (c < 1)
-            continue;
-        const float *y = loc + 3 * j;
-        const double *a = s->acc + 3 * (size_t)v;
-        double inv = 1.0 / c, x[3];
-        if (self_in_acc) {
-            x[0] = (a[0] - own[3 * j]) * inv;
-            x[1] = (a[1] - own[3 * j + 1]) * inv;
-            x[2] = (a[2] - own[3 * j + 2]) * inv;
-        } else {
-            x[0] = a[0] * inv;
-            x[1] = a[1] * inv;
-            x[2] = a[2] * inv;
-        }
-        ws += 1;
-        for (int r = 0; r < 3; r++) {
-            sy[r] += y[r];
-            sx[r] += x[r];
-            syy += (double)y[r] * y[r];
-            syx[3 * r] += y[r] * x[0];
-            syx[3 * r + 1] += y[r] * x[1];
-            syx[3 * r + 2] += y[r] * x[2];
-        }
-    }
     int nmk = 0;
     for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++)
         nmk += s->mvalid[s->imk_marker[e]];
@@ -395,6 +408,71 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
         t[r] = cx[r] - (R[3 * r] * cy[0] + R[3 * r + 1] * cy[1] + R[3 * r + 2] * cy[2]);
 }
 
+/* Greedy step: the overlap entries `ov` (n of them, indices into sov) of instance i go to the
+ * mean position of the instances placed before it. */
+static void align_greedy(mdl_synth *s, int i, const int *ov, int n)
+{
+    double ws = 0, sy[3] = {0}, sx[3] = {0}, syx[9] = {0}, syy = 0;
+    for (int o = 0; o < n; o++) {
+        int e = ov[o], v = s->sov_v[e], c = s->cnt[v];
+        if (c < 1)
+            continue;
+        const double *y = s->sloc + 3 * (size_t)e;
+        const double *a = s->acc + 3 * (size_t)v;
+        double inv = 1.0 / c, x[3] = {a[0] * inv, a[1] * inv, a[2] * inv};
+        ws += 1;
+        for (int r = 0; r < 3; r++) {
+            sy[r] += y[r];
+            sx[r] += x[r];
+            syy += y[r] * y[r];
+            syx[3 * r] += y[r] * x[0];
+            syx[3 * r + 1] += y[r] * x[1];
+            syx[3 * r + 2] += y[r] * x[2];
+        }
+    }
+    align_solve(s, i, ws, sy, sx, syx, syy);
+}
+
+/* Relaxation step: every overlap vertex of instance i goes to the mean position all other
+ * instances give it, (acc - own) / (cnt - 1) with the counts fixed after the greedy pass
+ * (sov_inv); sum y and sum |y|^2 come from update_local_needed. */
+static void align_relax(mdl_synth *s, int i)
+{
+    const struct mdl_model *m = s->m;
+    const double *restrict acc = s->acc, *restrict inv = s->sov_inv;
+    const double *restrict sloc = s->sloc, *restrict spos = s->spos;
+    const int *restrict sv = s->sov_v;
+    double sx0 = 0, sx1 = 0, sx2 = 0;
+    double s00 = 0, s01 = 0, s02 = 0, s10 = 0, s11 = 0, s12 = 0, s20 = 0, s21 = 0, s22 = 0;
+    int cnt = 0;
+    for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+        double w = inv[e];
+        if (!(w > 0))
+            continue;
+        const double *a = acc + 3 * (size_t)sv[e];
+        const double *y = sloc + 3 * (size_t)e, *own = spos + 3 * (size_t)e;
+        double x0 = (a[0] - own[0]) * w, x1 = (a[1] - own[1]) * w, x2 = (a[2] - own[2]) * w;
+        double y0 = y[0], y1 = y[1], y2 = y[2];
+        cnt++;
+        sx0 += x0;
+        sx1 += x1;
+        sx2 += x2;
+        s00 += y0 * x0;
+        s01 += y0 * x1;
+        s02 += y0 * x2;
+        s10 += y1 * x0;
+        s11 += y1 * x1;
+        s12 += y1 * x2;
+        s20 += y2 * x0;
+        s21 += y2 * x1;
+        s22 += y2 * x2;
+    }
+    const double *ym = s->ymom + 4 * i;
+    double sy[3] = {ym[0], ym[1], ym[2]}, sx[3] = {sx0, sx1, sx2};
+    double syx[9] = {s00, s01, s02, s10, s11, s12, s20, s21, s22};
+    align_solve(s, i, (double)cnt, sy, sx, syx, ym[3]);
+}
+
 /* Sec. 5.1: greedy rigid alignment in the precomputed order, then `relax` sweeps in which every
  * instance is aligned again to all its neighbours (a block coordinate descent on the same
  * objective, which carries marker targets along the limb chains). The alignments between shape
@@ -405,8 +483,8 @@ static void relax_all(mdl_synth *s, int relax)
     for (int sweep = 0; sweep < relax; sweep++)
         for (int step = 0; step < m->ninst; step++) {
             int i = m->order[step];
-            align_instance(s, i, m->sov + m->sov_off[i], m->sov_off[i + 1] - m->sov_off[i], 1);
-            inst_emit(s, i, 2, 0);
+            align_relax(s, i);
+            inst_emit(s, i, 0);
         }
 }
 
@@ -420,9 +498,9 @@ static void align_all(mdl_synth *s, int relax)
     }
     for (int step = 0; step < m->ninst; step++) {
         int i = m->order[step];
-        align_instance(s, i, m->order_ov + m->order_ov_off[step],
-                       m->order_ov_off[step + 1] - m->order_ov_off[step], 0);
-        inst_emit(s, i, 1, 0);
+        align_greedy(s, i, s->oov_e + m->order_ov_off[step],
+                     m->order_ov_off[step + 1] - m->order_ov_off[step]);
+        inst_emit(s, i, 1);
     }
     relax_all(s, relax);
 }
@@ -435,22 +513,21 @@ static void optimise_shapes(mdl_synth *s)
         int p = m->inst_part[i], k = m->pmodes[p], n = m->pv_off[p + 1] - m->pv_off[p];
         if (k == 0)
             continue;
-        const int *idx = m->pv_idx + m->pv_off[p];
         const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
-        const float *pos = s->pos + 3 * (size_t)s->inst_pos[i];
         const double *sig2 = m->part_sigma2 + m->ps_off[p];
         const double *lamp = s->lamp + s->inst_lam[i];
         for (int a = 0; a < k; a++)
             s->rhs[a] = m->beta * lamp[a] / sig2[a];
-        for (int o = m->sov_off[i]; o < m->sov_off[i + 1]; o++) {
-            int j = m->sov[o], v = idx[j];
-            if (s->cnt[v] < 2)
+        for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+            int j = m->sov[e];
+            double w = s->sov_inv[e];
+            if (!(w > 0))
                 continue;
-            double x[3], d[3], loc[3];
-            for (int r = 0; r < 3; r++) { /* mean of the other instances' positions */
-                x[r] = (s->acc[3 * (size_t)v + r] - pos[3 * j + r]) / (s->cnt[v] - 1);
-                d[r] = x[r] - t[r];
-            }
+            const double *acc = s->acc + 3 * (size_t)s->sov_v[e];
+            const double *own = s->spos + 3 * (size_t)e;
+            double d[3], loc[3];
+            for (int r = 0; r < 3; r++) /* mean of the other instances' positions */
+                d[r] = (acc[r] - own[r]) * w - t[r];
             for (int c = 0; c < 3; c++)
                 loc[c] = R[c] * d[0] + R[3 + c] * d[1] + R[6 + c] * d[2];
             const float *mean = m->part_mean + 3 * ((size_t)m->pv_off[p] + j);
@@ -562,7 +639,7 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
         /* the new shapes replace the old in the accumulated positions; the transforms found so
          * far are a good start, so sweeps suffice instead of another greedy pass */
         for (int i = 0; i < m->ninst; i++)
-            inst_emit(s, i, 2, 0);
+            inst_emit(s, i, 0);
         relax_all(s, it + 1 < m->iterations ? 1 : m->relax);
     }
     /* 4-5. blend (eq. 8) and place in the markers' frame: every instance's transform is composed
