@@ -38,6 +38,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* four floats, for the blend's transform (GCC/Clang vector extension; plain SSE on x86-64) */
+typedef float mdl__v4f __attribute__((vector_size(16)));
+
 struct mdl_synth {
     const struct mdl_model *m;
     float *P, *Pprev, *Plast;  /* nmarkers x 3: this frame, previous frame, last valid */
@@ -52,9 +55,19 @@ struct mdl_synth {
     double *lam, *lamp;        /* per instance modes (offset inst_lam) */
     int *inst_lam;             /* ninst + 1 */
     int *inst_pos;             /* ninst + 1: offsets (in vertices) into pos */
-    float *loc;                /* local shapes (eq. 6) of every instance's vertices */
+    /* the final blend works on structure-of-arrays copies, so that its transform runs 4 vertices
+     * at a time: per part, n_p rounded up to 4 (pn4) x, then y, then z, zero padded */
+    int *pn4;                  /* nparts */
+    int *smean_off, *smode_off; /* nparts + 1: offsets into smean (3 pn4) and smodes (3 pn4 k_p) */
+    float *smean, *smodes;     /* part_mean, part_modes in that layout (modes ld 3 pn4) */
+    int *iloc_off;             /* ninst + 1: offsets into loc (3 pn4 of the instance's part) */
+    float *loc;                /* local shapes (eq. 6), then weighted placed positions, SoA */
+    int *bl_off, *bl_j, *bl_v; /* per instance (2 NI + 1 offsets): vertices it alone gives the
+                                * output, then those it shares: local index, output vertex */
+    int *zero, nzero;          /* output vertices not given by one instance alone */
+    double *mloc;              /* 3 per marker entry (imk): local shape of the marker vertex */
     float *flam;               /* max modes, float copy of lambda for sgemv */
-    float *iw;                 /* blend weight (eq. 8) of every instance vertex, instance-major */
+    float *iw;                 /* blend weight (eq. 8) of every instance vertex, padded as loc / 3 */
     double *acc;               /* nv x 3 */
     int *cnt;                  /* nv */
     double *rhs;               /* max modes */
@@ -92,6 +105,17 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->inst_lam);
     free(s->inst_pos);
     free(s->loc);
+    free(s->pn4);
+    free(s->smean_off);
+    free(s->smode_off);
+    free(s->smean);
+    free(s->smodes);
+    free(s->iloc_off);
+    free(s->bl_off);
+    free(s->bl_j);
+    free(s->bl_v);
+    free(s->zero);
+    free(s->mloc);
     free(s->flam);
     free(s->iw);
     free(s->acc);
@@ -173,13 +197,73 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
         }
     s->lam = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
     s->lamp = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
-    s->loc = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
+    int np = m->nparts;
+    s->pn4 = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->smean_off = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->smode_off = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->iloc_off = mdl__calloc((size_t)NI + 1, sizeof(int));
+    if (s->pn4 && s->smean_off && s->smode_off && s->iloc_off) {
+        for (int p = 0; p < np; p++) {
+            s->pn4[p] = (m->pv_off[p + 1] - m->pv_off[p] + 3) & ~3;
+            s->smean_off[p + 1] = s->smean_off[p] + 3 * s->pn4[p];
+            s->smode_off[p + 1] = s->smode_off[p] + 3 * s->pn4[p] * m->pmodes[p];
+        }
+        for (int i = 0; i < NI; i++)
+            s->iloc_off[i + 1] = s->iloc_off[i] + 3 * s->pn4[m->inst_part[i]];
+        s->smean = mdl__calloc((size_t)s->smean_off[np] + 1, sizeof(float));
+        s->smodes = mdl__calloc((size_t)s->smode_off[np] + 1, sizeof(float));
+        s->loc = mdl__calloc((size_t)s->iloc_off[NI] + 1, sizeof(float));
+        s->iw = mdl__calloc((size_t)s->iloc_off[NI] / 3 + 1, sizeof(float));
+    }
+    if (s->smean && s->smodes)
+        for (int p = 0; p < np; p++) {
+            int n = m->pv_off[p + 1] - m->pv_off[p], n4 = s->pn4[p], k = m->pmodes[p];
+            const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
+            for (int j = 0; j < n; j++)
+                for (int c = 0; c < 3; c++)
+                    s->smean[s->smean_off[p] + c * n4 + j] = mean[3 * j + c];
+            for (int a = 0; a < k; a++) {
+                const float *va = m->part_modes + m->pm_off[p] + (size_t)a * 3 * n;
+                float *sa = s->smodes + s->smode_off[p] + (size_t)a * 3 * n4;
+                for (int j = 0; j < n; j++)
+                    for (int c = 0; c < 3; c++)
+                        sa[c * n4 + j] = va[3 * j + c];
+            }
+        }
     s->flam = mdl__calloc((size_t)maxk, sizeof(float));
-    s->iw = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(float));
-    if (s->iw && s->inst_pos)
+    if (s->iw && s->iloc_off)
         for (int v = 0; v < m->nv; v++)
             for (int b = m->blend_off[v]; b < m->blend_off[v + 1]; b++)
-                s->iw[s->inst_pos[m->blend_inst[b]] + m->blend_local[b]] = m->blend_w[b];
+                s->iw[s->iloc_off[m->blend_inst[b]] / 3 + m->blend_local[b]] = m->blend_w[b];
+    s->bl_off = mdl__calloc((size_t)2 * NI + 1, sizeof(int));
+    s->bl_j = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(int));
+    s->bl_v = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(int));
+    s->zero = mdl__calloc((size_t)m->nv + 1, sizeof(int));
+    uint8_t *alone = mdl__calloc((size_t)m->nv + 1, 1);
+    if (s->bl_off && s->bl_j && s->bl_v && s->zero && alone) {
+        int e = 0;
+        for (int i = 0; i < NI; i++) {
+            int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
+            const int *idx = m->pv_idx + m->pv_off[p];
+            for (int pass = 0; pass < 2; pass++) {
+                s->bl_off[2 * i + pass] = e;
+                for (int j = 0; j < n; j++) {
+                    int v = idx[j], b = m->blend_off[v];
+                    int only = m->blend_off[v + 1] - b == 1 && m->blend_inst[b] == i && m->blend_local[b] == j;
+                    if (only != (pass == 0))
+                        continue;
+                    alone[v] |= (uint8_t)only;
+                    s->bl_j[e] = j;
+                    s->bl_v[e++] = v;
+                }
+            }
+        }
+        s->bl_off[2 * NI] = e;
+        for (int v = 0; v < m->nv; v++)
+            if (!alone[v])
+                s->zero[s->nzero++] = v;
+    }
+    free(alone);
     s->acc = mdl__calloc((size_t)m->nv * 3, sizeof(double));
     s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
     s->mb = mdl__calloc((size_t)nm * 3, sizeof(double));
@@ -187,6 +271,7 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->imk_off = mdl__calloc((size_t)NI + 1, sizeof(int));
     s->imk_local = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
     s->imk_marker = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
+    s->mloc = mdl__calloc((size_t)NI * nm * 3 + 1, sizeof(double));
     if (s->imk_off && s->imk_local && s->imk_marker) {
         int e = 0;
         for (int i = 0; i < NI; i++) {
@@ -237,6 +322,8 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
     if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq || !s->iRp || !s->shared ||
         !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->loc || !s->flam || !s->iw ||
+        !s->pn4 || !s->smean_off || !s->smode_off || !s->smean || !s->smodes || !s->iloc_off ||
+        !s->bl_off || !s->bl_j || !s->bl_v || !s->zero || !s->mloc ||
         !s->acc || !s->cnt || !s->rhs || !s->mb ||
         !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker || !s->sov_v || !s->sov_inv ||
         !s->sloc || !s->spos || !s->oov_e || !s->ymom) {
@@ -254,23 +341,24 @@ void mdl_synth_reset(mdl_synth *s)
     s->have_body = 0;
 }
 
-/* The local shape of instance i (eq. 6): loc = mean + V lambda, for all its vertices. */
+/* The local shape of instance i (eq. 6): loc = mean + V lambda, for all its vertices, in the
+ * blend's structure-of-arrays layout. */
 static void update_local(mdl_synth *s, int i)
 {
     const struct mdl_model *m = s->m;
-    int p = m->inst_part[i], k = m->pmodes[p], n3 = 3 * (m->pv_off[p + 1] - m->pv_off[p]);
-    float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
-    memcpy(loc, m->part_mean + 3 * (size_t)m->pv_off[p], sizeof(float) * (size_t)n3);
+    int p = m->inst_part[i], k = m->pmodes[p], n3 = 3 * s->pn4[p];
+    float *loc = s->loc + s->iloc_off[i];
+    memcpy(loc, s->smean + s->smean_off[p], sizeof(float) * (size_t)n3);
     if (k == 0)
         return;
     float *lam = s->flam;
     for (int a = 0; a < k; a++)
         lam[a] = (float)s->lam[s->inst_lam[i] + a];
-    mdl_la_sgemv('N', n3, k, 1.0f, m->part_modes + m->pm_off[p], n3, lam, 1.0f, loc);
+    mdl_la_sgemv('N', n3, k, 1.0f, s->smodes + s->smode_off[p], n3, lam, 1.0f, loc);
 }
 
 /* The same for only the vertices the alignment and shape steps read: the overlap vertices, into
- * the compact sloc (one entry per sov entry), and the marker vertices, into loc. The full local
+ * the compact sloc (one entry per sov entry), and the marker vertices, into mloc. The full local
  * shape is needed only by the final blend. Also the moments of the overlap vertices' local
  * positions (sum y, sum |y|^2 over the entries with other instances), which the relaxation
  * sweeps reuse until the next shape step. */
@@ -278,7 +366,6 @@ static void update_local_needed(mdl_synth *s, int i)
 {
     const struct mdl_model *m = s->m;
     int p = m->inst_part[i], k = m->pmodes[p], n3 = 3 * (m->pv_off[p + 1] - m->pv_off[p]);
-    float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
     const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
     const float *V = m->part_modes + m->pm_off[p];
     float *lam = s->flam;
@@ -319,9 +406,10 @@ static void update_local_needed(mdl_synth *s, int i)
             y += va[1] * lam[a];
             z += va[2] * lam[a];
         }
-        loc[j3] = x;
-        loc[j3 + 1] = y;
-        loc[j3 + 2] = z;
+        double *o = s->mloc + 3 * (size_t)e;
+        o[0] = x;
+        o[1] = y;
+        o[2] = z;
     }
 }
 
@@ -368,7 +456,6 @@ static void align_solve(mdl_synth *s, int i, double ws, double sy[3], double sx[
                         double syy)
 {
     const struct mdl_model *m = s->m;
-    const float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
     int nmk = 0;
     for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++)
         nmk += s->mvalid[s->imk_marker[e]];
@@ -378,13 +465,13 @@ static void align_solve(mdl_synth *s, int i, double ws, double sy[3], double sx[
             int mk = s->imk_marker[e];
             if (!s->mvalid[mk])
                 continue;
-            const float *y = loc + 3 * s->imk_local[e];
+            const double *y = s->mloc + 3 * (size_t)e;
             const double *x = s->mb + 3 * mk;
             ws += w;
             for (int r = 0; r < 3; r++) {
                 sy[r] += w * y[r];
                 sx[r] += w * x[r];
-                syy += w * (double)y[r] * y[r];
+                syy += w * y[r] * y[r];
                 for (int c = 0; c < 3; c++)
                     syx[3 * r + c] += w * y[r] * x[c];
             }
@@ -660,7 +747,10 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
         memcpy(PR, s->Rb, sizeof PR);
         memcpy(Po, s->ob, sizeof Po);
     }
-    memset(Vout, 0, sizeof(float) * 3 * (size_t)m->nv);
+    for (int e = 0; e < s->nzero; e++) {
+        float *o = Vout + 3 * (size_t)s->zero[e];
+        o[0] = o[1] = o[2] = 0;
+    }
     for (int i = 0; i < m->ninst; i++) {
         update_local(s, i); /* the full local shape, needed only here */
         const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
@@ -670,15 +760,36 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
                 W[3 * r + k] = (float)(PR[3 * r] * R[k] + PR[3 * r + 1] * R[3 + k] + PR[3 * r + 2] * R[6 + k]);
             tw[r] = (float)(PR[3 * r] * t[0] + PR[3 * r + 1] * t[1] + PR[3 * r + 2] * t[2] + Po[r]);
         }
-        int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
-        const int *idx = m->pv_idx + m->pv_off[p];
-        const float *loc = s->loc + 3 * (size_t)s->inst_pos[i], *iw = s->iw + s->inst_pos[i];
-        for (int j = 0; j < n; j++) {
-            const float *y = loc + 3 * j;
-            float w = iw[j], *o = Vout + 3 * (size_t)idx[j];
-            o[0] += w * (W[0] * y[0] + W[1] * y[1] + W[2] * y[2] + tw[0]);
-            o[1] += w * (W[3] * y[0] + W[4] * y[1] + W[5] * y[2] + tw[1]);
-            o[2] += w * (W[6] * y[0] + W[7] * y[1] + W[8] * y[2] + tw[2]);
+        int n4 = s->pn4[m->inst_part[i]];
+        float *lx = s->loc + s->iloc_off[i], *ly = lx + n4, *lz = ly + n4;
+        const float *iw = s->iw + s->iloc_off[i] / 3;
+        for (int q = 0; q < n4; q += 4) { /* w (W y + t), four vertices at a time, in place */
+            mdl__v4f x, y, z, w;
+            memcpy(&x, lx + q, sizeof x);
+            memcpy(&y, ly + q, sizeof y);
+            memcpy(&z, lz + q, sizeof z);
+            memcpy(&w, iw + q, sizeof w);
+            mdl__v4f ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);
+            mdl__v4f oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);
+            mdl__v4f oz = w * (W[6] * x + W[7] * y + W[8] * z + tw[2]);
+            memcpy(lx + q, &ox, sizeof ox);
+            memcpy(ly + q, &oy, sizeof oy);
+            memcpy(lz + q, &oz, sizeof oz);
+        }
+        const int *bj = s->bl_j, *bv = s->bl_v;
+        for (int e = s->bl_off[2 * i]; e < s->bl_off[2 * i + 1]; e++) { /* its own vertices */
+            int j = bj[e];
+            float *o = Vout + 3 * (size_t)bv[e];
+            o[0] = lx[j];
+            o[1] = ly[j];
+            o[2] = lz[j];
+        }
+        for (int e = s->bl_off[2 * i + 1]; e < s->bl_off[2 * i + 2]; e++) { /* shared ones */
+            int j = bj[e];
+            float *o = Vout + 3 * (size_t)bv[e];
+            o[0] += lx[j];
+            o[1] += ly[j];
+            o[2] += lz[j];
         }
     }
     return 0;
