@@ -61,7 +61,7 @@ struct mdl_synth {
     int *smean_off, *smode_off; /* nparts + 1: offsets into smean (3 pn4) and smodes (3 pn4 k_p) */
     float *smean, *smodes;     /* part_mean, part_modes in that layout (modes ld 3 pn4) */
     int *iloc_off;             /* ninst + 1: offsets into loc (3 pn4 of the instance's part) */
-    float *loc;                /* local shapes (eq. 6), then weighted placed positions, SoA */
+    float *loc;                /* weighted placed positions of the instance vertices, SoA */
     int *bl_off, *bl_j, *bl_v; /* per instance (2 NI + 1 offsets): vertices it alone gives the
                                 * output, then those it shares: local index, output vertex */
     int *zero, nzero;          /* output vertices not given by one instance alone */
@@ -339,22 +339,6 @@ void mdl_synth_reset(mdl_synth *s)
     memset(s->seen, 0, (size_t)s->m->nmarkers);
     s->have_prev = 0;
     s->have_body = 0;
-}
-
-/* The local shape of instance i (eq. 6): loc = mean + V lambda, for all its vertices, in the
- * blend's structure-of-arrays layout. */
-static void update_local(mdl_synth *s, int i)
-{
-    const struct mdl_model *m = s->m;
-    int p = m->inst_part[i], k = m->pmodes[p], n3 = 3 * s->pn4[p];
-    float *loc = s->loc + s->iloc_off[i];
-    memcpy(loc, s->smean + s->smean_off[p], sizeof(float) * (size_t)n3);
-    if (k == 0)
-        return;
-    float *lam = s->flam;
-    for (int a = 0; a < k; a++)
-        lam[a] = (float)s->lam[s->inst_lam[i] + a];
-    mdl_la_sgemv('N', n3, k, 1.0f, s->smodes + s->smode_off[p], n3, lam, 1.0f, loc);
 }
 
 /* The same for only the vertices the alignment and shape steps read: the overlap vertices, into
@@ -752,7 +736,6 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
         o[0] = o[1] = o[2] = 0;
     }
     for (int i = 0; i < m->ninst; i++) {
-        update_local(s, i); /* the full local shape, needed only here */
         const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
         float W[9], tw[3];
         for (int r = 0; r < 3; r++) {
@@ -760,14 +743,29 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
                 W[3 * r + k] = (float)(PR[3 * r] * R[k] + PR[3 * r + 1] * R[3 + k] + PR[3 * r + 2] * R[6 + k]);
             tw[r] = (float)(PR[3 * r] * t[0] + PR[3 * r + 1] * t[1] + PR[3 * r + 2] * t[2] + Po[r]);
         }
-        int n4 = s->pn4[m->inst_part[i]];
-        float *lx = s->loc + s->iloc_off[i], *ly = lx + n4, *lz = ly + n4;
-        const float *iw = s->iw + s->iloc_off[i] / 3;
-        for (int q = 0; q < n4; q += 4) { /* w (W y + t), four vertices at a time, in place */
+        int p = m->inst_part[i], n4 = s->pn4[p], k = m->pmodes[p];
+        float *lx = s->loc + s->iloc_off[i], *ly = lx + n4, *lz = ly + n4, *lam = s->flam;
+        const float *iw = s->iw + s->iloc_off[i] / 3, *mean = s->smean + s->smean_off[p];
+        const float *V = s->smodes + s->smode_off[p];
+        for (int a = 0; a < k; a++)
+            lam[a] = (float)s->lam[s->inst_lam[i] + a];
+        /* the full local shape y = mean + V lambda (eq. 6), needed only here, then w (W y + t),
+         * four vertices at a time */
+        for (int q = 0; q < n4; q += 4) {
             mdl__v4f x, y, z, w;
-            memcpy(&x, lx + q, sizeof x);
-            memcpy(&y, ly + q, sizeof y);
-            memcpy(&z, lz + q, sizeof z);
+            memcpy(&x, mean + q, sizeof x);
+            memcpy(&y, mean + n4 + q, sizeof y);
+            memcpy(&z, mean + 2 * n4 + q, sizeof z);
+            for (int a = 0; a < k; a++) {
+                const float *va = V + (size_t)a * 3 * n4 + q;
+                mdl__v4f vx, vy, vz;
+                memcpy(&vx, va, sizeof vx);
+                memcpy(&vy, va + n4, sizeof vy);
+                memcpy(&vz, va + 2 * n4, sizeof vz);
+                x += lam[a] * vx;
+                y += lam[a] * vy;
+                z += lam[a] * vz;
+            }
             memcpy(&w, iw + q, sizeof w);
             mdl__v4f ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);
             mdl__v4f oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);
