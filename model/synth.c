@@ -609,7 +609,7 @@ static void optimise_shapes(mdl_synth *s)
                              va[2] * (loc[2] - mean[2]);
             }
         }
-        if (mdl_la_potrs(k, 1, m->chol + m->chol_off[i], k, s->rhs, k, NULL) == 0)
+        if (mdl_la_potrs1(k, m->chol + m->chol_off[i], k, s->rhs) == 0)
             memcpy(s->lam + s->inst_lam[i], s->rhs, sizeof(double) * (size_t)k);
     }
     for (int i = 0; i < m->ninst; i++)
