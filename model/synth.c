@@ -38,8 +38,27 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* four floats, for the blend's transform (GCC/Clang vector extension; plain SSE on x86-64) */
+/* four and eight floats, for the blend's transform (GCC/Clang vector extension): one SSE
+ * register, or one AVX register in the variant for AVX2 machines (chosen in mdl_synth_create) */
 typedef float mdl__v4f __attribute__((vector_size(16)));
+typedef float mdl__v8f __attribute__((vector_size(32)));
+#if defined(__x86_64__) && defined(__GNUC__)
+#define SYNTH_AVX2 1
+#endif
+
+typedef void (*blend_place_fn)(int n8, int k, const float *mean, const float *V, const float *lam,
+                               const float *iw, const float W[9], const float tw[3], float *lx,
+                               float *ly, float *lz);
+static void blend_place4(int n8, int k, const float *mean, const float *V, const float *lam,
+                         const float *iw, const float W[9], const float tw[3], float *lx, float *ly,
+                         float *lz);
+#ifdef SYNTH_AVX2
+__attribute__((target("avx2"))) static void blend_place8(int n8, int k, const float *mean,
+                                                         const float *V, const float *lam,
+                                                         const float *iw, const float W[9],
+                                                         const float tw[3], float *lx, float *ly,
+                                                         float *lz);
+#endif
 
 struct mdl_synth {
     const struct mdl_model *m;
@@ -56,16 +75,17 @@ struct mdl_synth {
     int *inst_lam;             /* ninst + 1 */
     int *inst_pos;             /* ninst + 1: offsets (in vertices) into pos */
     /* the final blend works on structure-of-arrays copies, so that its transform runs 4 vertices
-     * at a time: per part, n_p rounded up to 4 (pn4) x, then y, then z, zero padded */
-    int *pn4;                  /* nparts */
-    int *smean_off, *smode_off; /* nparts + 1: offsets into smean (3 pn4) and smodes (3 pn4 k_p) */
-    float *smean, *smodes;     /* part_mean, part_modes in that layout (modes ld 3 pn4) */
-    int *iloc_off;             /* ninst + 1: offsets into loc (3 pn4 of the instance's part) */
+     * at a time: per part, n_p rounded up to 8 (pn) x, then y, then z, zero padded */
+    int *pn;                  /* nparts */
+    int *smean_off, *smode_off; /* nparts + 1: offsets into smean (3 pn) and smodes (3 pn k_p) */
+    float *smean, *smodes;     /* part_mean, part_modes in that layout (modes ld 3 pn) */
+    int *iloc_off;             /* ninst + 1: offsets into loc (3 pn of the instance's part) */
     float *loc;                /* weighted placed positions of the instance vertices, SoA */
     int *bl_off, *bl_j, *bl_v; /* per instance (2 NI + 1 offsets): vertices it alone gives the
                                 * output, then those it shares: local index, output vertex */
     int *zero, nzero;          /* output vertices not given by one instance alone */
     double *mloc;              /* 3 per marker entry (imk): local shape of the marker vertex */
+    blend_place_fn place;      /* blend_place4 or, on AVX2 machines, blend_place8 */
     float *flam;               /* max modes, float copy of lambda for sgemv */
     float *iw;                 /* blend weight (eq. 8) of every instance vertex, padded as loc / 3 */
     double *acc;               /* nv x 3 */
@@ -105,7 +125,7 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->inst_lam);
     free(s->inst_pos);
     free(s->loc);
-    free(s->pn4);
+    free(s->pn);
     free(s->smean_off);
     free(s->smode_off);
     free(s->smean);
@@ -142,6 +162,12 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     if (!s)
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     s->m = m;
+    s->place = blend_place4;
+#ifdef SYNTH_AVX2
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx2"))
+        s->place = blend_place8;
+#endif
     int nm = m->nmarkers, NI = m->ninst, maxd = 1, maxo = 1, maxk = 1, maxn = 1, maxx = 1;
     for (int l = 0; l < m->nlimbs; l++) {
         if (m->reg[l].nin > maxd)
@@ -198,18 +224,18 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->lam = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
     s->lamp = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
     int np = m->nparts;
-    s->pn4 = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->pn = mdl__calloc((size_t)np + 1, sizeof(int));
     s->smean_off = mdl__calloc((size_t)np + 1, sizeof(int));
     s->smode_off = mdl__calloc((size_t)np + 1, sizeof(int));
     s->iloc_off = mdl__calloc((size_t)NI + 1, sizeof(int));
-    if (s->pn4 && s->smean_off && s->smode_off && s->iloc_off) {
+    if (s->pn && s->smean_off && s->smode_off && s->iloc_off) {
         for (int p = 0; p < np; p++) {
-            s->pn4[p] = (m->pv_off[p + 1] - m->pv_off[p] + 3) & ~3;
-            s->smean_off[p + 1] = s->smean_off[p] + 3 * s->pn4[p];
-            s->smode_off[p + 1] = s->smode_off[p] + 3 * s->pn4[p] * m->pmodes[p];
+            s->pn[p] = (m->pv_off[p + 1] - m->pv_off[p] + 7) & ~7;
+            s->smean_off[p + 1] = s->smean_off[p] + 3 * s->pn[p];
+            s->smode_off[p + 1] = s->smode_off[p] + 3 * s->pn[p] * m->pmodes[p];
         }
         for (int i = 0; i < NI; i++)
-            s->iloc_off[i + 1] = s->iloc_off[i] + 3 * s->pn4[m->inst_part[i]];
+            s->iloc_off[i + 1] = s->iloc_off[i] + 3 * s->pn[m->inst_part[i]];
         s->smean = mdl__calloc((size_t)s->smean_off[np] + 1, sizeof(float));
         s->smodes = mdl__calloc((size_t)s->smode_off[np] + 1, sizeof(float));
         s->loc = mdl__calloc((size_t)s->iloc_off[NI] + 1, sizeof(float));
@@ -217,17 +243,17 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     }
     if (s->smean && s->smodes)
         for (int p = 0; p < np; p++) {
-            int n = m->pv_off[p + 1] - m->pv_off[p], n4 = s->pn4[p], k = m->pmodes[p];
+            int n = m->pv_off[p + 1] - m->pv_off[p], n8 = s->pn[p], k = m->pmodes[p];
             const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
             for (int j = 0; j < n; j++)
                 for (int c = 0; c < 3; c++)
-                    s->smean[s->smean_off[p] + c * n4 + j] = mean[3 * j + c];
+                    s->smean[s->smean_off[p] + c * n8 + j] = mean[3 * j + c];
             for (int a = 0; a < k; a++) {
                 const float *va = m->part_modes + m->pm_off[p] + (size_t)a * 3 * n;
-                float *sa = s->smodes + s->smode_off[p] + (size_t)a * 3 * n4;
+                float *sa = s->smodes + s->smode_off[p] + (size_t)a * 3 * n8;
                 for (int j = 0; j < n; j++)
                     for (int c = 0; c < 3; c++)
-                        sa[c * n4 + j] = va[3 * j + c];
+                        sa[c * n8 + j] = va[3 * j + c];
             }
         }
     s->flam = mdl__calloc((size_t)maxk, sizeof(float));
@@ -322,7 +348,7 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
     if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq || !s->iRp || !s->shared ||
         !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->loc || !s->flam || !s->iw ||
-        !s->pn4 || !s->smean_off || !s->smode_off || !s->smean || !s->smodes || !s->iloc_off ||
+        !s->pn || !s->smean_off || !s->smode_off || !s->smean || !s->smodes || !s->iloc_off ||
         !s->bl_off || !s->bl_j || !s->bl_v || !s->zero || !s->mloc ||
         !s->acc || !s->cnt || !s->rhs || !s->mb ||
         !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker || !s->sov_v || !s->sov_inv ||
@@ -616,6 +642,72 @@ static void optimise_shapes(mdl_synth *s)
         update_local_needed(s, i);
 }
 
+/* The full local shape y = mean + V lambda (eq. 6) of an instance's n8 (padded) vertices, needed
+ * only by the blend, then w (W y + t) into lx, ly, lz, from the structure-of-arrays copies
+ * (mean: x, y, z blocks of n8; V: k such triples): four vertices at a time, or eight on AVX2
+ * (the same operations in the same order, so the same result). */
+static void blend_place4(int n8, int k, const float *mean, const float *V, const float *lam,
+                         const float *iw, const float W[9], const float tw[3], float *lx, float *ly,
+                         float *lz)
+{
+    for (int q = 0; q < n8; q += 4) {
+        mdl__v4f x, y, z, w;
+        memcpy(&x, mean + q, sizeof x);
+        memcpy(&y, mean + n8 + q, sizeof y);
+        memcpy(&z, mean + 2 * n8 + q, sizeof z);
+        for (int a = 0; a < k; a++) {
+            const float *va = V + (size_t)a * 3 * n8 + q;
+            mdl__v4f vx, vy, vz;
+            memcpy(&vx, va, sizeof vx);
+            memcpy(&vy, va + n8, sizeof vy);
+            memcpy(&vz, va + 2 * n8, sizeof vz);
+            x += lam[a] * vx;
+            y += lam[a] * vy;
+            z += lam[a] * vz;
+        }
+        memcpy(&w, iw + q, sizeof w);
+        mdl__v4f ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);
+        mdl__v4f oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);
+        mdl__v4f oz = w * (W[6] * x + W[7] * y + W[8] * z + tw[2]);
+        memcpy(lx + q, &ox, sizeof ox);
+        memcpy(ly + q, &oy, sizeof oy);
+        memcpy(lz + q, &oz, sizeof oz);
+    }
+}
+
+#ifdef SYNTH_AVX2
+__attribute__((target("avx2"))) static void blend_place8(int n8, int k, const float *mean,
+                                                         const float *V, const float *lam,
+                                                         const float *iw, const float W[9],
+                                                         const float tw[3], float *lx, float *ly,
+                                                         float *lz)
+{
+    for (int q = 0; q < n8; q += 8) {
+        mdl__v8f x, y, z, w;
+        memcpy(&x, mean + q, sizeof x);
+        memcpy(&y, mean + n8 + q, sizeof y);
+        memcpy(&z, mean + 2 * n8 + q, sizeof z);
+        for (int a = 0; a < k; a++) {
+            const float *va = V + (size_t)a * 3 * n8 + q;
+            mdl__v8f vx, vy, vz;
+            memcpy(&vx, va, sizeof vx);
+            memcpy(&vy, va + n8, sizeof vy);
+            memcpy(&vz, va + 2 * n8, sizeof vz);
+            x += lam[a] * vx;
+            y += lam[a] * vy;
+            z += lam[a] * vz;
+        }
+        memcpy(&w, iw + q, sizeof w);
+        mdl__v8f ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);
+        mdl__v8f oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);
+        mdl__v8f oz = w * (W[6] * x + W[7] * y + W[8] * z + tw[2]);
+        memcpy(lx + q, &ox, sizeof ox);
+        memcpy(ly + q, &oy, sizeof oy);
+        memcpy(lz + q, &oz, sizeof oz);
+    }
+}
+#endif
+
 int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, float *Vout,
                     mdl_synth_info *info)
 {
@@ -743,37 +835,13 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
                 W[3 * r + k] = (float)(PR[3 * r] * R[k] + PR[3 * r + 1] * R[3 + k] + PR[3 * r + 2] * R[6 + k]);
             tw[r] = (float)(PR[3 * r] * t[0] + PR[3 * r + 1] * t[1] + PR[3 * r + 2] * t[2] + Po[r]);
         }
-        int p = m->inst_part[i], n4 = s->pn4[p], k = m->pmodes[p];
-        float *lx = s->loc + s->iloc_off[i], *ly = lx + n4, *lz = ly + n4, *lam = s->flam;
+        int p = m->inst_part[i], n8 = s->pn[p], k = m->pmodes[p];
+        float *lx = s->loc + s->iloc_off[i], *ly = lx + n8, *lz = ly + n8, *lam = s->flam;
         const float *iw = s->iw + s->iloc_off[i] / 3, *mean = s->smean + s->smean_off[p];
         const float *V = s->smodes + s->smode_off[p];
         for (int a = 0; a < k; a++)
             lam[a] = (float)s->lam[s->inst_lam[i] + a];
-        /* the full local shape y = mean + V lambda (eq. 6), needed only here, then w (W y + t),
-         * four vertices at a time */
-        for (int q = 0; q < n4; q += 4) {
-            mdl__v4f x, y, z, w;
-            memcpy(&x, mean + q, sizeof x);
-            memcpy(&y, mean + n4 + q, sizeof y);
-            memcpy(&z, mean + 2 * n4 + q, sizeof z);
-            for (int a = 0; a < k; a++) {
-                const float *va = V + (size_t)a * 3 * n4 + q;
-                mdl__v4f vx, vy, vz;
-                memcpy(&vx, va, sizeof vx);
-                memcpy(&vy, va + n4, sizeof vy);
-                memcpy(&vz, va + 2 * n4, sizeof vz);
-                x += lam[a] * vx;
-                y += lam[a] * vy;
-                z += lam[a] * vz;
-            }
-            memcpy(&w, iw + q, sizeof w);
-            mdl__v4f ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);
-            mdl__v4f oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);
-            mdl__v4f oz = w * (W[6] * x + W[7] * y + W[8] * z + tw[2]);
-            memcpy(lx + q, &ox, sizeof ox);
-            memcpy(ly + q, &oy, sizeof oy);
-            memcpy(lz + q, &oz, sizeof oz);
-        }
+        s->place(n8, k, mean, V, lam, iw, W, tw, lx, ly, lz);
         const int *bj = s->bl_j, *bv = s->bl_v;
         for (int e = s->bl_off[2 * i]; e < s->bl_off[2 * i + 1]; e++) { /* its own vertices */
             int j = bj[e];
