@@ -42,6 +42,7 @@
  * register, or one AVX register in the variant for AVX2 machines (chosen in mdl_synth_create) */
 typedef float mdl__v4f __attribute__((vector_size(16)));
 typedef float mdl__v8f __attribute__((vector_size(32)));
+typedef double mdl__v4d __attribute__((vector_size(32))); /* xyz and a zero */
 #if defined(__x86_64__) && defined(__GNUC__)
 #define SYNTH_AVX2 1
 #endif
@@ -52,12 +53,14 @@ typedef void (*blend_place_fn)(int n8, int k, const float *mean, const float *V,
 static void blend_place4(int n8, int k, const float *mean, const float *V, const float *lam,
                          const float *iw, const float W[9], const float tw[3], float *lx, float *ly,
                          float *lz);
+static void relax_all_base(mdl_synth *s, int relax);
 #ifdef SYNTH_AVX2
 __attribute__((target("avx2"))) static void blend_place8(int n8, int k, const float *mean,
                                                          const float *V, const float *lam,
                                                          const float *iw, const float W[9],
                                                          const float tw[3], float *lx, float *ly,
                                                          float *lz);
+__attribute__((target("avx2"))) static void relax_all_avx2(mdl_synth *s, int relax);
 #endif
 
 struct mdl_synth {
@@ -86,9 +89,10 @@ struct mdl_synth {
     int *zero, nzero;          /* output vertices not given by one instance alone */
     double *mloc;              /* 3 per marker entry (imk): local shape of the marker vertex */
     blend_place_fn place;      /* blend_place4 or, on AVX2 machines, blend_place8 */
+    void (*relax)(struct mdl_synth *, int); /* relax_all_base or relax_all_avx2 */
     float *flam;               /* max modes, float copy of lambda for sgemv */
     float *iw;                 /* blend weight (eq. 8) of every instance vertex, padded as loc / 3 */
-    double *acc;               /* nv x 3 */
+    double *acc;               /* nv x 4 (xyz, 0): sum of the instances' positions */
     int *cnt;                  /* nv */
     double *rhs;               /* max modes */
     double *mb;                /* nmarkers x 3: markers in the body frame */
@@ -98,7 +102,7 @@ struct mdl_synth {
      * steps read of an instance's vertices besides its markers */
     int *sov_v;                /* global vertex of each entry */
     double *sov_inv;           /* 1 / (number of other instances holding it), 0 if none */
-    double *sloc, *spos;       /* 3 per entry: local shape, placed position (body frame) */
+    double *sloc, *spos;       /* 4 per entry (xyz, 0): local shape, placed position (body frame) */
     int *oov_e;                /* m->order_ov as entries of sov */
     double *ymom;              /* per instance: sum y (3) and sum |y|^2 over its entries */
 };
@@ -163,10 +167,13 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     s->m = m;
     s->place = blend_place4;
+    s->relax = relax_all_base;
 #ifdef SYNTH_AVX2
     __builtin_cpu_init();
-    if (__builtin_cpu_supports("avx2"))
+    if (__builtin_cpu_supports("avx2")) {
         s->place = blend_place8;
+        s->relax = relax_all_avx2;
+    }
 #endif
     int nm = m->nmarkers, NI = m->ninst, maxd = 1, maxo = 1, maxk = 1, maxn = 1, maxx = 1;
     for (int l = 0; l < m->nlimbs; l++) {
@@ -290,7 +297,7 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
                 s->zero[s->nzero++] = v;
     }
     free(alone);
-    s->acc = mdl__calloc((size_t)m->nv * 3, sizeof(double));
+    s->acc = mdl__calloc((size_t)m->nv * 4, sizeof(double));
     s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
     s->mb = mdl__calloc((size_t)nm * 3, sizeof(double));
     s->mvalid = mdl__calloc((size_t)nm, 1);
@@ -315,8 +322,8 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     int nsov = m->sov_off[NI];
     s->sov_v = mdl__calloc((size_t)nsov + 1, sizeof(int));
     s->sov_inv = mdl__calloc((size_t)nsov + 1, sizeof(double));
-    s->sloc = mdl__calloc((size_t)nsov * 3 + 1, sizeof(double));
-    s->spos = mdl__calloc((size_t)nsov * 3 + 1, sizeof(double));
+    s->sloc = mdl__calloc((size_t)nsov * 4 + 1, sizeof(double));
+    s->spos = mdl__calloc((size_t)nsov * 4 + 1, sizeof(double));
     s->oov_e = mdl__calloc((size_t)m->order_ov_off[NI] + 1, sizeof(int));
     s->ymom = mdl__calloc((size_t)NI * 4, sizeof(double));
     int *ctot = mdl__calloc((size_t)m->nv, sizeof(int));
@@ -391,7 +398,7 @@ static void update_local_needed(mdl_synth *s, int i)
             y += va[1] * lam[a];
             z += va[2] * lam[a];
         }
-        double *o = s->sloc + 3 * (size_t)e;
+        double *o = s->sloc + 4 * (size_t)e;
         o[0] = x;
         o[1] = y;
         o[2] = z;
@@ -425,35 +432,29 @@ static void update_local_needed(mdl_synth *s, int i)
 
 /* Places instance i's overlap vertices R loc + t into spos (all that the alignment and shape
  * steps read of its placement). `add` 1 adds them to acc/cnt (greedy pass), 0 replaces the
- * instance's previous contribution there (acc += new - old). */
-static void inst_emit(mdl_synth *s, int i, int add)
+ * instance's previous contribution there (acc += new - old). One 4-vector per vertex (xyz, 0). */
+static inline __attribute__((always_inline)) void inst_emit(mdl_synth *s, int i, int add)
 {
     const struct mdl_model *m = s->m;
     const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
-    const double R0 = R[0], R1 = R[1], R2 = R[2], R3 = R[3], R4 = R[4], R5 = R[5], R6 = R[6],
-                 R7 = R[7], R8 = R[8], t0 = t[0], t1 = t[1], t2 = t[2];
+    const mdl__v4d c0 = {R[0], R[3], R[6], 0}, c1 = {R[1], R[4], R[7], 0}, c2 = {R[2], R[5], R[8], 0},
+                   tv = {t[0], t[1], t[2], 0};
     const int *sv = s->sov_v;
     double *restrict acc = s->acc;
     for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
-        const double *y = s->sloc + 3 * (size_t)e;
-        double *o = s->spos + 3 * (size_t)e;
-        double *a = acc + 3 * (size_t)sv[e];
-        double n0 = R0 * y[0] + R1 * y[1] + R2 * y[2] + t0;
-        double n1 = R3 * y[0] + R4 * y[1] + R5 * y[2] + t1;
-        double n2 = R6 * y[0] + R7 * y[1] + R8 * y[2] + t2;
+        double *o = s->spos + 4 * (size_t)e, *a = acc + 4 * (size_t)sv[e];
+        const double *y = s->sloc + 4 * (size_t)e;
+        mdl__v4d n = c0 * y[0] + c1 * y[1] + c2 * y[2] + tv, av, ov;
+        memcpy(&av, a, sizeof av);
         if (add) {
-            a[0] += n0;
-            a[1] += n1;
-            a[2] += n2;
+            av += n;
             s->cnt[sv[e]]++;
         } else {
-            a[0] += n0 - o[0];
-            a[1] += n1 - o[1];
-            a[2] += n2 - o[2];
+            memcpy(&ov, o, sizeof ov);
+            av += n - ov;
         }
-        o[0] = n0;
-        o[1] = n1;
-        o[2] = n2;
+        memcpy(a, &av, sizeof av);
+        memcpy(o, &n, sizeof n);
     }
 }
 
@@ -514,8 +515,8 @@ static void align_greedy(mdl_synth *s, int i, const int *ov, int n)
         int e = ov[o], v = s->sov_v[e], c = s->cnt[v];
         if (c < 1)
             continue;
-        const double *y = s->sloc + 3 * (size_t)e;
-        const double *a = s->acc + 3 * (size_t)v;
+        const double *y = s->sloc + 4 * (size_t)e;
+        const double *a = s->acc + 4 * (size_t)v;
         double inv = 1.0 / c, x[3] = {a[0] * inv, a[1] * inv, a[2] * inv};
         ws += 1;
         for (int r = 0; r < 3; r++) {
@@ -532,41 +533,34 @@ static void align_greedy(mdl_synth *s, int i, const int *ov, int n)
 
 /* Relaxation step: every overlap vertex of instance i goes to the mean position all other
  * instances give it, (acc - own) / (cnt - 1) with the counts fixed after the greedy pass
- * (sov_inv); sum y and sum |y|^2 come from update_local_needed. */
-static void align_relax(mdl_synth *s, int i)
+ * (sov_inv); sum y and sum |y|^2 come from update_local_needed. Row r of sum y x^T is the
+ * 4-vector sum y_r x. */
+static inline __attribute__((always_inline)) void align_relax(mdl_synth *s, int i)
 {
     const struct mdl_model *m = s->m;
     const double *restrict acc = s->acc, *restrict inv = s->sov_inv;
     const double *restrict sloc = s->sloc, *restrict spos = s->spos;
     const int *restrict sv = s->sov_v;
-    double sx0 = 0, sx1 = 0, sx2 = 0;
-    double s00 = 0, s01 = 0, s02 = 0, s10 = 0, s11 = 0, s12 = 0, s20 = 0, s21 = 0, s22 = 0;
+    mdl__v4d sxv = {0, 0, 0, 0}, r0 = sxv, r1 = sxv, r2 = sxv;
     int cnt = 0;
     for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
         double w = inv[e];
         if (!(w > 0))
             continue;
-        const double *a = acc + 3 * (size_t)sv[e];
-        const double *y = sloc + 3 * (size_t)e, *own = spos + 3 * (size_t)e;
-        double x0 = (a[0] - own[0]) * w, x1 = (a[1] - own[1]) * w, x2 = (a[2] - own[2]) * w;
-        double y0 = y[0], y1 = y[1], y2 = y[2];
+        const double *y = sloc + 4 * (size_t)e;
+        mdl__v4d a, own;
+        memcpy(&a, acc + 4 * (size_t)sv[e], sizeof a);
+        memcpy(&own, spos + 4 * (size_t)e, sizeof own);
+        mdl__v4d x = (a - own) * w;
         cnt++;
-        sx0 += x0;
-        sx1 += x1;
-        sx2 += x2;
-        s00 += y0 * x0;
-        s01 += y0 * x1;
-        s02 += y0 * x2;
-        s10 += y1 * x0;
-        s11 += y1 * x1;
-        s12 += y1 * x2;
-        s20 += y2 * x0;
-        s21 += y2 * x1;
-        s22 += y2 * x2;
+        sxv += x;
+        r0 += y[0] * x;
+        r1 += y[1] * x;
+        r2 += y[2] * x;
     }
     const double *ym = s->ymom + 4 * i;
-    double sy[3] = {ym[0], ym[1], ym[2]}, sx[3] = {sx0, sx1, sx2};
-    double syx[9] = {s00, s01, s02, s10, s11, s12, s20, s21, s22};
+    double sy[3] = {ym[0], ym[1], ym[2]}, sx[3] = {sxv[0], sxv[1], sxv[2]};
+    double syx[9] = {r0[0], r0[1], r0[2], r1[0], r1[1], r1[2], r2[0], r2[1], r2[2]};
     align_solve(s, i, (double)cnt, sy, sx, syx, ym[3]);
 }
 
@@ -574,7 +568,7 @@ static void align_relax(mdl_synth *s, int i)
  * instance is aligned again to all its neighbours (a block coordinate descent on the same
  * objective, which carries marker targets along the limb chains). The alignments between shape
  * steps get one sweep; the last one gets the model's full count. */
-static void relax_all(mdl_synth *s, int relax)
+static inline __attribute__((always_inline)) void relax_body(mdl_synth *s, int relax)
 {
     const struct mdl_model *m = s->m;
     for (int sweep = 0; sweep < relax; sweep++)
@@ -585,12 +579,32 @@ static void relax_all(mdl_synth *s, int relax)
         }
 }
 
+/* the same code for plain x86-64 and, on AVX2 machines, with one register per 4-vector (the same
+ * operations in the same order, so the same result) */
+static void relax_all_base(mdl_synth *s, int relax)
+{
+    relax_body(s, relax);
+}
+
+#ifdef SYNTH_AVX2
+__attribute__((target("avx2"))) static void relax_all_avx2(mdl_synth *s, int relax)
+{
+    relax_body(s, relax);
+}
+#endif
+
+static void emit_all(mdl_synth *s)
+{
+    for (int i = 0; i < s->m->ninst; i++)
+        inst_emit(s, i, 0);
+}
+
 static void align_all(mdl_synth *s, int relax)
 {
     const struct mdl_model *m = s->m;
     for (int e = 0; e < s->nshared; e++) { /* only shared vertices are ever accumulated */
         int v = s->shared[e];
-        s->acc[3 * (size_t)v] = s->acc[3 * (size_t)v + 1] = s->acc[3 * (size_t)v + 2] = 0;
+        memset(s->acc + 4 * (size_t)v, 0, 4 * sizeof(double));
         s->cnt[v] = 0;
     }
     for (int step = 0; step < m->ninst; step++) {
@@ -599,7 +613,7 @@ static void align_all(mdl_synth *s, int relax)
                      m->order_ov_off[step + 1] - m->order_ov_off[step]);
         inst_emit(s, i, 1);
     }
-    relax_all(s, relax);
+    s->relax(s, relax);
 }
 
 /* Sec. 5.2, eq. (7), for every instance with modes. */
@@ -620,8 +634,8 @@ static void optimise_shapes(mdl_synth *s)
             double w = s->sov_inv[e];
             if (!(w > 0))
                 continue;
-            const double *acc = s->acc + 3 * (size_t)s->sov_v[e];
-            const double *own = s->spos + 3 * (size_t)e;
+            const double *acc = s->acc + 4 * (size_t)s->sov_v[e];
+            const double *own = s->spos + 4 * (size_t)e;
             double d[3], loc[3];
             for (int r = 0; r < 3; r++) /* mean of the other instances' positions */
                 d[r] = (acc[r] - own[r]) * w - t[r];
@@ -801,9 +815,8 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
         optimise_shapes(s);
         /* the new shapes replace the old in the accumulated positions; the transforms found so
          * far are a good start, so sweeps suffice instead of another greedy pass */
-        for (int i = 0; i < m->ninst; i++)
-            inst_emit(s, i, 0);
-        relax_all(s, it + 1 < m->iterations ? 1 : m->relax);
+        emit_all(s);
+        s->relax(s, it + 1 < m->iterations ? 1 : m->relax);
     }
     /* 4-5. blend (eq. 8) and place in the markers' frame: every instance's transform is composed
      * with the placement, then its vertices are added into the output with their blend weights
