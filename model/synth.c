@@ -53,14 +53,14 @@ typedef void (*blend_place_fn)(int n8, int k, const float *mean, const float *V,
 static void blend_place4(int n8, int k, const float *mean, const float *V, const float *lam,
                          const float *iw, const float W[9], const float tw[3], float *lx, float *ly,
                          float *lz);
-static void relax_all_base(mdl_synth *s, int relax);
+static void alternate_base(mdl_synth *s);
 #ifdef SYNTH_AVX2
 __attribute__((target("avx2"))) static void blend_place8(int n8, int k, const float *mean,
                                                          const float *V, const float *lam,
                                                          const float *iw, const float W[9],
                                                          const float tw[3], float *lx, float *ly,
                                                          float *lz);
-__attribute__((target("avx2"))) static void relax_all_avx2(mdl_synth *s, int relax);
+__attribute__((target("avx2"))) static void alternate_avx2(mdl_synth *s);
 #endif
 
 struct mdl_synth {
@@ -89,7 +89,7 @@ struct mdl_synth {
     int *zero, nzero;          /* output vertices not given by one instance alone */
     double *mloc;              /* 3 per marker entry (imk): local shape of the marker vertex */
     blend_place_fn place;      /* blend_place4 or, on AVX2 machines, blend_place8 */
-    void (*relax)(struct mdl_synth *, int); /* relax_all_base or relax_all_avx2 */
+    void (*alternate)(struct mdl_synth *); /* alternate_base or alternate_avx2 */
     float *flam;               /* max modes, float copy of lambda for sgemv */
     float *iw;                 /* blend weight (eq. 8) of every instance vertex, padded as loc / 3 */
     double *acc;               /* nv x 4 (xyz, 0): sum of the instances' positions */
@@ -167,12 +167,12 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     s->m = m;
     s->place = blend_place4;
-    s->relax = relax_all_base;
+    s->alternate = alternate_base;
 #ifdef SYNTH_AVX2
     __builtin_cpu_init();
     if (__builtin_cpu_supports("avx2")) {
         s->place = blend_place8;
-        s->relax = relax_all_avx2;
+        s->alternate = alternate_avx2;
     }
 #endif
     int nm = m->nmarkers, NI = m->ninst, maxd = 1, maxo = 1, maxk = 1, maxn = 1, maxx = 1;
@@ -379,7 +379,7 @@ void mdl_synth_reset(mdl_synth *s)
  * shape is needed only by the final blend. Also the moments of the overlap vertices' local
  * positions (sum y, sum |y|^2 over the entries with other instances), which the relaxation
  * sweeps reuse until the next shape step. */
-static void update_local_needed(mdl_synth *s, int i)
+static inline __attribute__((always_inline)) void update_local_needed(mdl_synth *s, int i)
 {
     const struct mdl_model *m = s->m;
     int p = m->inst_part[i], k = m->pmodes[p], n3 = 3 * (m->pv_off[p + 1] - m->pv_off[p]);
@@ -508,7 +508,7 @@ static void align_solve(mdl_synth *s, int i, double ws, double sy[3], double sx[
 
 /* Greedy step: the overlap entries `ov` (n of them, indices into sov) of instance i go to the
  * mean position of the instances placed before it. */
-static void align_greedy(mdl_synth *s, int i, const int *ov, int n)
+static inline __attribute__((always_inline)) void align_greedy(mdl_synth *s, int i, const int *ov, int n)
 {
     double ws = 0, sy[3] = {0}, sx[3] = {0}, syx[9] = {0}, syy = 0;
     for (int o = 0; o < n; o++) {
@@ -568,7 +568,7 @@ static inline __attribute__((always_inline)) void align_relax(mdl_synth *s, int 
  * instance is aligned again to all its neighbours (a block coordinate descent on the same
  * objective, which carries marker targets along the limb chains). The alignments between shape
  * steps get one sweep; the last one gets the model's full count. */
-static inline __attribute__((always_inline)) void relax_body(mdl_synth *s, int relax)
+static inline __attribute__((always_inline)) void relax_all(mdl_synth *s, int relax)
 {
     const struct mdl_model *m = s->m;
     for (int sweep = 0; sweep < relax; sweep++)
@@ -579,27 +579,13 @@ static inline __attribute__((always_inline)) void relax_body(mdl_synth *s, int r
         }
 }
 
-/* the same code for plain x86-64 and, on AVX2 machines, with one register per 4-vector (the same
- * operations in the same order, so the same result) */
-static void relax_all_base(mdl_synth *s, int relax)
-{
-    relax_body(s, relax);
-}
-
-#ifdef SYNTH_AVX2
-__attribute__((target("avx2"))) static void relax_all_avx2(mdl_synth *s, int relax)
-{
-    relax_body(s, relax);
-}
-#endif
-
-static void emit_all(mdl_synth *s)
+static inline __attribute__((always_inline)) void emit_all(mdl_synth *s)
 {
     for (int i = 0; i < s->m->ninst; i++)
         inst_emit(s, i, 0);
 }
 
-static void align_all(mdl_synth *s, int relax)
+static inline __attribute__((always_inline)) void align_all(mdl_synth *s, int relax)
 {
     const struct mdl_model *m = s->m;
     for (int e = 0; e < s->nshared; e++) { /* only shared vertices are ever accumulated */
@@ -613,11 +599,11 @@ static void align_all(mdl_synth *s, int relax)
                      m->order_ov_off[step + 1] - m->order_ov_off[step]);
         inst_emit(s, i, 1);
     }
-    s->relax(s, relax);
+    relax_all(s, relax);
 }
 
 /* Sec. 5.2, eq. (7), for every instance with modes. */
-static void optimise_shapes(mdl_synth *s)
+static inline __attribute__((always_inline)) void optimise_shapes(mdl_synth *s)
 {
     const struct mdl_model *m = s->m;
     for (int i = 0; i < m->ninst; i++) {
@@ -660,6 +646,36 @@ static void optimise_shapes(mdl_synth *s)
  * only by the blend, then w (W y + t) into lx, ly, lz, from the structure-of-arrays copies
  * (mean: x, y, z blocks of n8; V: k such triples): four vertices at a time, or eight on AVX2
  * (the same operations in the same order, so the same result). */
+/* Step 3 of the header: alternate alignment and shape optimisation. Compiled for plain x86-64
+ * and, on AVX2 machines, with one register per 4-vector (chosen in mdl_synth_create; the same
+ * operations in the same order, so the same result). */
+static inline __attribute__((always_inline)) void alternate_body(mdl_synth *s)
+{
+    const struct mdl_model *m = s->m;
+    for (int i = 0; i < m->ninst; i++)
+        update_local_needed(s, i);
+    align_all(s, m->iterations > 0 ? 1 : m->relax);
+    for (int it = 0; it < m->iterations; it++) {
+        optimise_shapes(s);
+        /* the new shapes replace the old in the accumulated positions; the transforms found so
+         * far are a good start, so sweeps suffice instead of another greedy pass */
+        emit_all(s);
+        relax_all(s, it + 1 < m->iterations ? 1 : m->relax);
+    }
+}
+
+static void alternate_base(mdl_synth *s)
+{
+    alternate_body(s);
+}
+
+#ifdef SYNTH_AVX2
+__attribute__((target("avx2"))) static void alternate_avx2(mdl_synth *s)
+{
+    alternate_body(s);
+}
+#endif
+
 static void blend_place4(int n8, int k, const float *mean, const float *V, const float *lam,
                          const float *iw, const float W[9], const float tw[3], float *lx, float *ly,
                          float *lz)
@@ -808,16 +824,7 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
     memcpy(s->Pprev, s->P, sizeof(float) * 3 * (size_t)nm);
     s->have_prev = 1;
     /* 3. alternate alignment and shape optimisation */
-    for (int i = 0; i < m->ninst; i++)
-        update_local_needed(s, i);
-    align_all(s, m->iterations > 0 ? 1 : m->relax);
-    for (int it = 0; it < m->iterations; it++) {
-        optimise_shapes(s);
-        /* the new shapes replace the old in the accumulated positions; the transforms found so
-         * far are a good start, so sweeps suffice instead of another greedy pass */
-        emit_all(s);
-        s->relax(s, it + 1 < m->iterations ? 1 : m->relax);
-    }
+    s->alternate(s);
     /* 4-5. blend (eq. 8) and place in the markers' frame: every instance's transform is composed
      * with the placement, then its vertices are added into the output with their blend weights
      * (instance-major, so that the inner loop reads contiguous memory) */
