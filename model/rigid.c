@@ -132,6 +132,8 @@ int mdl__rot_polar(const double S[9], double R[9])
         if (!(d > 0))
             break;
         double fx = 0, fi = 0;
+        /* unrolled (GCC leaves these 9-step loops rolled at -O2), so X and C stay in registers */
+#pragma GCC unroll 9
         for (int k = 0; k < 9; k++) {
             fx += X[k] * X[k];
             fi += C[k] * C[k];
@@ -139,6 +141,7 @@ int mdl__rot_polar(const double S[9], double R[9])
         fi /= d * d;
         double g = sqrt(sqrt(fi / fx)), h = 1 / (d * g);
         double change = 0;
+#pragma GCC unroll 9
         for (int k = 0; k < 9; k++) {
             double nx = 0.5 * (g * X[k] + h * C[k]);
             change += (nx - X[k]) * (nx - X[k]);
