@@ -25,6 +25,12 @@
  * (counted in info->markers_held); a marker never seen makes its limbs use the training mean of
  * their parameters; without a reference edge the last body frame is kept (info->reference_lost).
  * Everything is allocated in mdl_synth_create; mdl_synth_frame allocates nothing.
+ *
+ * Layout for speed (docs/MODEL.md, "Synthesis per frame"): steps 3a-b read only the overlap
+ * vertices (m->sov) and the marker vertices, kept in compact per-entry arrays; the full local
+ * shape of eq. (6) is formed only inside the blend, from structure-of-arrays copies of the part
+ * means and modes. Step 3 and the blend are each compiled for plain x86-64 and for AVX2 and
+ * picked once in mdl_synth_create; both do the same operations in the same order.
  */
 #include "posefeat.h"
 #include "linalg.h"
