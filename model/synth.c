@@ -82,7 +82,7 @@ struct mdl_synth {
     int nshared;
     double *lam, *lamp;        /* per instance modes (offset inst_lam) */
     int *inst_lam;             /* ninst + 1 */
-    int *inst_pos;             /* ninst + 1: offsets (in vertices) into pos */
+    int *inst_pos;             /* ninst + 1: offsets of each instance's vertices (sizes bl_j, bl_v) */
     /* the final blend works on structure-of-arrays copies, so that its transform runs 4 vertices
      * at a time: per part, n_p rounded up to 8 (pn) x, then y, then z, zero padded */
     int *pn;                  /* nparts */
@@ -96,7 +96,7 @@ struct mdl_synth {
     double *mloc;              /* 3 per marker entry (imk): local shape of the marker vertex */
     blend_place_fn place;      /* blend_place4 or, on AVX2 machines, blend_place8 */
     void (*alternate)(struct mdl_synth *); /* alternate_base or alternate_avx2 */
-    float *flam;               /* max modes, float copy of lambda for sgemv */
+    float *flam;               /* max modes, float copy of an instance's lambda */
     float *iw;                 /* blend weight (eq. 8) of every instance vertex, padded as loc / 3 */
     double *acc;               /* nv x 4 (xyz, 0): sum of the instances' positions */
     int *cnt;                  /* nv */
