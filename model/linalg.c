@@ -1,4 +1,5 @@
-/* linalg.c - thin wrappers over CBLAS and LAPACKE (column-major, *_work variants). */
+/* linalg.c - thin wrappers over CBLAS and LAPACKE (column-major, *_work variants), and a
+ * triangular solve for tiny systems. */
 #include "linalg.h"
 #include "model.h"
 #include "util.h"
@@ -64,6 +65,25 @@ int mdl_la_potrs(int n, int nrhs, const double *A, int lda, double *B, int ldb, 
 {
     return check_info("dpotrs",
                       LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'U', n, nrhs, A, lda, B, ldb), err);
+}
+
+int mdl_la_potrs1(int n, const double *U, int ldu, double *b)
+{
+    for (int i = 0; i < n; i++) {
+        double d = U[i + (size_t)i * ldu], v = b[i];
+        if (!(d > 0))
+            return MDL_ENUMERIC;
+        for (int r = 0; r < i; r++)
+            v -= U[r + (size_t)i * ldu] * b[r];
+        b[i] = v / d;
+    }
+    for (int i = n - 1; i >= 0; i--) {
+        double v = b[i];
+        for (int c = i + 1; c < n; c++)
+            v -= U[i + (size_t)c * ldu] * b[c];
+        b[i] = v / U[i + (size_t)i * ldu];
+    }
+    return 0;
 }
 
 void mdl_set_blas_threads(int n)

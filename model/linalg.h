@@ -17,7 +17,7 @@ void mdl_la_gemm(char ta, char tb, int m, int n, int k, double alpha, const doub
 /* y = alpha * op(A) * x + beta * y; A is m x n. */
 void mdl_la_gemv(char ta, int m, int n, double alpha, const double *A, int lda, const double *x,
                  double beta, double *y);
-/* Single-precision y = alpha * op(A) * x + beta * y, for the per-frame shape reconstruction. */
+/* Single-precision y = alpha * op(A) * x + beta * y. */
 void mdl_la_sgemv(char ta, int m, int n, float alpha, const float *A, int lda, const float *x,
                   float beta, float *y);
 
@@ -29,5 +29,9 @@ int mdl_la_syev(int n, double *A, int lda, double *w, char *err);
  * it (dpotrs) for nrhs right-hand sides. No allocation: usable per frame. */
 int mdl_la_potrf(int n, double *A, int lda, char *err);
 int mdl_la_potrs(int n, int nrhs, const double *A, int lda, double *B, int ldb, char *err);
+/* The same solve for one right-hand side by plain substitution (U^T y = b, then U x = y, with the
+ * upper factor U from mdl_la_potrf), for the few-mode systems solved every frame, where the LAPACK
+ * call costs more than the arithmetic. Returns MDL_ENUMERIC for a non-positive diagonal. */
+int mdl_la_potrs1(int n, const double *U, int ldu, double *b);
 
 #endif

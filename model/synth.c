@@ -25,6 +25,12 @@
  * (counted in info->markers_held); a marker never seen makes its limbs use the training mean of
  * their parameters; without a reference edge the last body frame is kept (info->reference_lost).
  * Everything is allocated in mdl_synth_create; mdl_synth_frame allocates nothing.
+ *
+ * Layout for speed (docs/MODEL.md, "Synthesis per frame"): steps 3a-b read only the overlap
+ * vertices (m->sov) and the marker vertices, kept in compact per-entry arrays; the full local
+ * shape of eq. (6) is formed only inside the blend, from structure-of-arrays copies of the part
+ * means and modes. Step 3 and the blend are each compiled for plain x86-64 and for AVX2 and
+ * picked once in mdl_synth_create; both do the same operations in the same order.
  */
 #include "posefeat.h"
 #include "linalg.h"
@@ -37,6 +43,31 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* four and eight floats, for the blend's transform (GCC/Clang vector extension): one SSE
+ * register, or one AVX register in the variant for AVX2 machines (chosen in mdl_synth_create) */
+typedef float mdl__v4f __attribute__((vector_size(16)));
+typedef float mdl__v8f __attribute__((vector_size(32)));
+typedef double mdl__v4d __attribute__((vector_size(32))); /* xyz and a zero */
+#if defined(__x86_64__) && defined(__GNUC__)
+#define SYNTH_AVX2 1
+#endif
+
+typedef void (*blend_place_fn)(int n8, int k, const float *mean, const float *V, const float *lam,
+                               const float *iw, const float W[9], const float tw[3], float *lx,
+                               float *ly, float *lz);
+static void blend_place4(int n8, int k, const float *mean, const float *V, const float *lam,
+                         const float *iw, const float W[9], const float tw[3], float *lx, float *ly,
+                         float *lz);
+static void alternate_base(mdl_synth *s);
+#ifdef SYNTH_AVX2
+__attribute__((target("avx2"))) static void blend_place8(int n8, int k, const float *mean,
+                                                         const float *V, const float *lam,
+                                                         const float *iw, const float W[9],
+                                                         const float tw[3], float *lx, float *ly,
+                                                         float *lz);
+__attribute__((target("avx2"))) static void alternate_avx2(mdl_synth *s);
+#endif
 
 struct mdl_synth {
     const struct mdl_model *m;
@@ -51,17 +82,35 @@ struct mdl_synth {
     int nshared;
     double *lam, *lamp;        /* per instance modes (offset inst_lam) */
     int *inst_lam;             /* ninst + 1 */
-    int *inst_pos;             /* ninst + 1: offsets (in vertices) into pos */
-    float *pos;                /* positions of every instance's vertices, body frame */
-    float *loc;                /* local shapes (eq. 6) of every instance's vertices */
-    float *flam;               /* max modes, float copy of lambda for sgemv */
-    float *iw;                 /* blend weight (eq. 8) of every instance vertex, instance-major */
-    double *acc;               /* nv x 3 */
+    int *inst_pos;             /* ninst + 1: offsets of each instance's vertices (sizes bl_j, bl_v) */
+    /* the final blend works on structure-of-arrays copies, so that its transform runs 4 vertices
+     * at a time: per part, n_p rounded up to 8 (pn) x, then y, then z, zero padded */
+    int *pn;                  /* nparts */
+    int *smean_off, *smode_off; /* nparts + 1: offsets into smean (3 pn) and smodes (3 pn k_p) */
+    float *smean, *smodes;     /* part_mean, part_modes in that layout (modes ld 3 pn) */
+    int *iloc_off;             /* ninst + 1: offsets into loc (3 pn of the instance's part) */
+    float *loc;                /* weighted placed positions of the instance vertices, SoA */
+    int *bl_off, *bl_j, *bl_v; /* per instance (2 NI + 1 offsets): vertices it alone gives the
+                                * output, then those it shares: local index, output vertex */
+    int *zero, nzero;          /* output vertices not given by one instance alone */
+    double *mloc;              /* 3 per marker entry (imk): local shape of the marker vertex */
+    blend_place_fn place;      /* blend_place4 or, on AVX2 machines, blend_place8 */
+    void (*alternate)(struct mdl_synth *); /* alternate_base or alternate_avx2 */
+    float *flam;               /* max modes, float copy of an instance's lambda */
+    float *iw;                 /* blend weight (eq. 8) of every instance vertex, padded as loc / 3 */
+    double *acc;               /* nv x 4 (xyz, 0): sum of the instances' positions */
     int *cnt;                  /* nv */
     double *rhs;               /* max modes */
     double *mb;                /* nmarkers x 3: markers in the body frame */
     uint8_t *mvalid;           /* nmarkers: valid in this frame (not held) */
     int *imk_off, *imk_local, *imk_marker; /* markers on each instance: local vertex, marker */
+    /* the overlap entries (m->sov, per instance sov_off), compact: all the alignment and shape
+     * steps read of an instance's vertices besides its markers */
+    int *sov_v;                /* global vertex of each entry */
+    double *sov_inv;           /* 1 / (number of other instances holding it), 0 if none */
+    double *sloc, *spos;       /* 4 per entry (xyz, 0): local shape, placed position (body frame) */
+    int *oov_e;                /* m->order_ov as entries of sov */
+    double *ymom;              /* per instance: sum y (3) and sum |y|^2 over its entries */
 };
 
 void mdl_synth_destroy(mdl_synth *s)
@@ -85,8 +134,18 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->lamp);
     free(s->inst_lam);
     free(s->inst_pos);
-    free(s->pos);
     free(s->loc);
+    free(s->pn);
+    free(s->smean_off);
+    free(s->smode_off);
+    free(s->smean);
+    free(s->smodes);
+    free(s->iloc_off);
+    free(s->bl_off);
+    free(s->bl_j);
+    free(s->bl_v);
+    free(s->zero);
+    free(s->mloc);
     free(s->flam);
     free(s->iw);
     free(s->acc);
@@ -97,6 +156,12 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s->imk_off);
     free(s->imk_local);
     free(s->imk_marker);
+    free(s->sov_v);
+    free(s->sov_inv);
+    free(s->sloc);
+    free(s->spos);
+    free(s->oov_e);
+    free(s->ymom);
     free(s);
 }
 
@@ -107,6 +172,15 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
     if (!s)
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     s->m = m;
+    s->place = blend_place4;
+    s->alternate = alternate_base;
+#ifdef SYNTH_AVX2
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx2")) {
+        s->place = blend_place8;
+        s->alternate = alternate_avx2;
+    }
+#endif
     int nm = m->nmarkers, NI = m->ninst, maxd = 1, maxo = 1, maxk = 1, maxn = 1, maxx = 1;
     for (int l = 0; l < m->nlimbs; l++) {
         if (m->reg[l].nin > maxd)
@@ -162,21 +236,81 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
         }
     s->lam = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
     s->lamp = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
-    s->pos = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
-    s->loc = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) * 3 + 1, sizeof(float));
+    int np = m->nparts;
+    s->pn = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->smean_off = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->smode_off = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->iloc_off = mdl__calloc((size_t)NI + 1, sizeof(int));
+    if (s->pn && s->smean_off && s->smode_off && s->iloc_off) {
+        for (int p = 0; p < np; p++) {
+            s->pn[p] = (m->pv_off[p + 1] - m->pv_off[p] + 7) & ~7;
+            s->smean_off[p + 1] = s->smean_off[p] + 3 * s->pn[p];
+            s->smode_off[p + 1] = s->smode_off[p] + 3 * s->pn[p] * m->pmodes[p];
+        }
+        for (int i = 0; i < NI; i++)
+            s->iloc_off[i + 1] = s->iloc_off[i] + 3 * s->pn[m->inst_part[i]];
+        s->smean = mdl__calloc((size_t)s->smean_off[np] + 1, sizeof(float));
+        s->smodes = mdl__calloc((size_t)s->smode_off[np] + 1, sizeof(float));
+        s->loc = mdl__calloc((size_t)s->iloc_off[NI] + 1, sizeof(float));
+        s->iw = mdl__calloc((size_t)s->iloc_off[NI] / 3 + 1, sizeof(float));
+    }
+    if (s->smean && s->smodes)
+        for (int p = 0; p < np; p++) {
+            int n = m->pv_off[p + 1] - m->pv_off[p], n8 = s->pn[p], k = m->pmodes[p];
+            const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
+            for (int j = 0; j < n; j++)
+                for (int c = 0; c < 3; c++)
+                    s->smean[s->smean_off[p] + c * n8 + j] = mean[3 * j + c];
+            for (int a = 0; a < k; a++) {
+                const float *va = m->part_modes + m->pm_off[p] + (size_t)a * 3 * n;
+                float *sa = s->smodes + s->smode_off[p] + (size_t)a * 3 * n8;
+                for (int j = 0; j < n; j++)
+                    for (int c = 0; c < 3; c++)
+                        sa[c * n8 + j] = va[3 * j + c];
+            }
+        }
     s->flam = mdl__calloc((size_t)maxk, sizeof(float));
-    s->iw = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(float));
-    if (s->iw && s->inst_pos)
+    if (s->iw && s->iloc_off)
         for (int v = 0; v < m->nv; v++)
             for (int b = m->blend_off[v]; b < m->blend_off[v + 1]; b++)
-                s->iw[s->inst_pos[m->blend_inst[b]] + m->blend_local[b]] = m->blend_w[b];
-    s->acc = mdl__calloc((size_t)m->nv * 3, sizeof(double));
+                s->iw[s->iloc_off[m->blend_inst[b]] / 3 + m->blend_local[b]] = m->blend_w[b];
+    s->bl_off = mdl__calloc((size_t)2 * NI + 1, sizeof(int));
+    s->bl_j = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(int));
+    s->bl_v = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(int));
+    s->zero = mdl__calloc((size_t)m->nv + 1, sizeof(int));
+    uint8_t *alone = mdl__calloc((size_t)m->nv + 1, 1);
+    if (s->bl_off && s->bl_j && s->bl_v && s->zero && alone) {
+        int e = 0;
+        for (int i = 0; i < NI; i++) {
+            int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
+            const int *idx = m->pv_idx + m->pv_off[p];
+            for (int pass = 0; pass < 2; pass++) {
+                s->bl_off[2 * i + pass] = e;
+                for (int j = 0; j < n; j++) {
+                    int v = idx[j], b = m->blend_off[v];
+                    int only = m->blend_off[v + 1] - b == 1 && m->blend_inst[b] == i && m->blend_local[b] == j;
+                    if (only != (pass == 0))
+                        continue;
+                    alone[v] |= (uint8_t)only;
+                    s->bl_j[e] = j;
+                    s->bl_v[e++] = v;
+                }
+            }
+        }
+        s->bl_off[2 * NI] = e;
+        for (int v = 0; v < m->nv; v++)
+            if (!alone[v])
+                s->zero[s->nzero++] = v;
+    }
+    free(alone);
+    s->acc = mdl__calloc((size_t)m->nv * 4, sizeof(double));
     s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
     s->mb = mdl__calloc((size_t)nm * 3, sizeof(double));
     s->mvalid = mdl__calloc((size_t)nm, 1);
     s->imk_off = mdl__calloc((size_t)NI + 1, sizeof(int));
     s->imk_local = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
     s->imk_marker = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
+    s->mloc = mdl__calloc((size_t)NI * nm * 3 + 1, sizeof(double));
     if (s->imk_off && s->imk_local && s->imk_marker) {
         int e = 0;
         for (int i = 0; i < NI; i++) {
@@ -191,11 +325,47 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
             s->imk_off[i + 1] = e;
         }
     }
+    int nsov = m->sov_off[NI];
+    s->sov_v = mdl__calloc((size_t)nsov + 1, sizeof(int));
+    s->sov_inv = mdl__calloc((size_t)nsov + 1, sizeof(double));
+    s->sloc = mdl__calloc((size_t)nsov * 4 + 1, sizeof(double));
+    s->spos = mdl__calloc((size_t)nsov * 4 + 1, sizeof(double));
+    s->oov_e = mdl__calloc((size_t)m->order_ov_off[NI] + 1, sizeof(int));
+    s->ymom = mdl__calloc((size_t)NI * 4, sizeof(double));
+    int *ctot = mdl__calloc((size_t)m->nv, sizeof(int));
+    if (s->sov_v && s->sov_inv && s->oov_e && ctot) {
+        for (int i = 0; i < NI; i++)
+            for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+                s->sov_v[e] = m->pv_idx[m->pv_off[m->inst_part[i]] + m->sov[e]];
+                ctot[s->sov_v[e]]++;
+            }
+        for (int e = 0; e < nsov; e++)
+            s->sov_inv[e] = ctot[s->sov_v[e]] > 1 ? 1.0 / (ctot[s->sov_v[e]] - 1) : 0;
+        for (int step = 0; step < NI; step++) { /* order_ov is a subset of sov (train.c) */
+            int i = m->order[step];
+            for (int o = m->order_ov_off[step]; o < m->order_ov_off[step + 1]; o++) {
+                int e = m->sov_off[i];
+                while (e < m->sov_off[i + 1] && m->sov[e] != m->order_ov[o])
+                    e++;
+                if (e == m->sov_off[i + 1]) {
+                    free(ctot);
+                    mdl_synth_destroy(s);
+                    return mdl__err(err, -EINVAL, "synth: model's greedy overlap vertex %d of instance %d "
+                                    "is not among its overlap vertices", m->order_ov[o], i);
+                }
+                s->oov_e[o] = e;
+            }
+        }
+    }
+    free(ctot);
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
     if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq || !s->iRp || !s->shared ||
-        !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->pos || !s->loc || !s->flam || !s->iw ||
+        !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->loc || !s->flam || !s->iw ||
+        !s->pn || !s->smean_off || !s->smode_off || !s->smean || !s->smodes || !s->iloc_off ||
+        !s->bl_off || !s->bl_j || !s->bl_v || !s->zero || !s->mloc ||
         !s->acc || !s->cnt || !s->rhs || !s->mb ||
-        !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker) {
+        !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker || !s->sov_v || !s->sov_inv ||
+        !s->sloc || !s->spos || !s->oov_e || !s->ymom) {
         mdl_synth_destroy(s);
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     }
@@ -210,102 +380,99 @@ void mdl_synth_reset(mdl_synth *s)
     s->have_body = 0;
 }
 
-/* The local shape of instance i (eq. 6): loc = mean + V lambda, for all its vertices. */
-static void update_local(mdl_synth *s, int i)
+/* The same for only the vertices the alignment and shape steps read: the overlap vertices, into
+ * the compact sloc (one entry per sov entry), and the marker vertices, into mloc. The full local
+ * shape is needed only by the final blend. Also the moments of the overlap vertices' local
+ * positions (sum y, sum |y|^2 over the entries with other instances), which the relaxation
+ * sweeps reuse until the next shape step. */
+static inline __attribute__((always_inline)) void update_local_needed(mdl_synth *s, int i)
 {
     const struct mdl_model *m = s->m;
     int p = m->inst_part[i], k = m->pmodes[p], n3 = 3 * (m->pv_off[p + 1] - m->pv_off[p]);
-    float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
-    memcpy(loc, m->part_mean + 3 * (size_t)m->pv_off[p], sizeof(float) * (size_t)n3);
-    if (k == 0)
-        return;
+    const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
+    const float *V = m->part_modes + m->pm_off[p];
     float *lam = s->flam;
     for (int a = 0; a < k; a++)
         lam[a] = (float)s->lam[s->inst_lam[i] + a];
-    mdl_la_sgemv('N', n3, k, 1.0f, m->part_modes + m->pm_off[p], n3, lam, 1.0f, loc);
+    double sy0 = 0, sy1 = 0, sy2 = 0, syy = 0;
+    for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+        int j3 = 3 * m->sov[e];
+        float x = mean[j3], y = mean[j3 + 1], z = mean[j3 + 2];
+        for (int a = 0; a < k; a++) {
+            const float *va = V + (size_t)a * n3 + j3;
+            x += va[0] * lam[a];
+            y += va[1] * lam[a];
+            z += va[2] * lam[a];
+        }
+        double *o = s->sloc + 4 * (size_t)e;
+        o[0] = x;
+        o[1] = y;
+        o[2] = z;
+        if (s->sov_inv[e] > 0) {
+            sy0 += x;
+            sy1 += y;
+            sy2 += z;
+            syy += (double)x * x + (double)y * y + (double)z * z;
+        }
+    }
+    double *ym = s->ymom + 4 * i;
+    ym[0] = sy0;
+    ym[1] = sy1;
+    ym[2] = sy2;
+    ym[3] = syy;
+    for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++) {
+        int j3 = 3 * s->imk_local[e];
+        float x = mean[j3], y = mean[j3 + 1], z = mean[j3 + 2];
+        for (int a = 0; a < k; a++) {
+            const float *va = V + (size_t)a * n3 + j3;
+            x += va[0] * lam[a];
+            y += va[1] * lam[a];
+            z += va[2] * lam[a];
+        }
+        double *o = s->mloc + 3 * (size_t)e;
+        o[0] = x;
+        o[1] = y;
+        o[2] = z;
+    }
 }
 
-/* Places instance i's vertices R loc + t into pos: only those shared with other instances (all
- * that the alignment and shape steps read) unless `all`. mode 1 adds them to acc/cnt, mode 2
- * replaces the instance's previous contribution there, mode 0 leaves acc alone. */
-static void inst_emit(mdl_synth *s, int i, int mode, int all)
+/* Places instance i's overlap vertices R loc + t into spos (all that the alignment and shape
+ * steps read of its placement). `add` 1 adds them to acc/cnt (greedy pass), 0 replaces the
+ * instance's previous contribution there (acc += new - old). One 4-vector per vertex (xyz, 0). */
+static inline __attribute__((always_inline)) void inst_emit(mdl_synth *s, int i, int add)
 {
     const struct mdl_model *m = s->m;
-    int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
     const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
-    float Rf[9], tf[3];
-    for (int r = 0; r < 9; r++)
-        Rf[r] = (float)R[r];
-    for (int r = 0; r < 3; r++)
-        tf[r] = (float)t[r];
-    float *out = s->pos + 3 * (size_t)s->inst_pos[i];
-    const float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
-    const int *idx = m->pv_idx + m->pv_off[p];
-    const int *list = m->sov + m->sov_off[i];
-    int cnt = all ? n : m->sov_off[i + 1] - m->sov_off[i];
-    for (int e = 0; e < cnt; e++) {
-        int j = all ? e : list[e];
-        const float *y = loc + 3 * j;
-        float *o = out + 3 * j;
-        if (mode == 2) {
-            double *a = s->acc + 3 * (size_t)idx[j];
-            a[0] -= o[0];
-            a[1] -= o[1];
-            a[2] -= o[2];
+    const mdl__v4d c0 = {R[0], R[3], R[6], 0}, c1 = {R[1], R[4], R[7], 0}, c2 = {R[2], R[5], R[8], 0},
+                   tv = {t[0], t[1], t[2], 0};
+    const int *sv = s->sov_v;
+    double *restrict acc = s->acc;
+    for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+        double *o = s->spos + 4 * (size_t)e, *a = acc + 4 * (size_t)sv[e];
+        const double *y = s->sloc + 4 * (size_t)e;
+        mdl__v4d n = c0 * y[0] + c1 * y[1] + c2 * y[2] + tv, av, ov;
+        memcpy(&av, a, sizeof av);
+        if (add) {
+            av += n;
+            s->cnt[sv[e]]++;
+        } else {
+            memcpy(&ov, o, sizeof ov);
+            av += n - ov;
         }
-        o[0] = Rf[0] * y[0] + Rf[1] * y[1] + Rf[2] * y[2] + tf[0];
-        o[1] = Rf[3] * y[0] + Rf[4] * y[1] + Rf[5] * y[2] + tf[1];
-        o[2] = Rf[6] * y[0] + Rf[7] * y[1] + Rf[8] * y[2] + tf[2];
-        if (mode) {
-            double *a = s->acc + 3 * (size_t)idx[j];
-            a[0] += o[0];
-            a[1] += o[1];
-            a[2] += o[2];
-            if (mode == 1)
-                s->cnt[idx[j]]++;
-        }
+        memcpy(a, &av, sizeof av);
+        memcpy(o, &n, sizeof n);
     }
 }
 
 /* Weighted absolute orientation of instance i onto targets, with its predicted rotation as a prior
- * (rigid.h): the n local vertices `ov` go to the mean position the other instances give them (all
- * placed instances when `self_in_acc` is 0; all but i itself when 1), and the instance's markers
- * (when the model uses them) to the markers' positions. Without any target the prediction stays. */
-static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_in_acc)
+ * (rigid.h), from the moments of its overlap vertices y and their targets x (ws = sum w,
+ * sy = sum w y, sx = sum w x, syx = sum w y x^T, syy = sum w |y|^2): the instance's markers (when
+ * the model uses them) are added as targets at the markers' positions. Without any target the
+ * prediction stays. */
+static void align_solve(mdl_synth *s, int i, double ws, double sy[3], double sx[3], double syx[9],
+                        double syy)
 {
     const struct mdl_model *m = s->m;
-    int p = m->inst_part[i];
-    const int *idx = m->pv_idx + m->pv_off[p];
-    const float *own = s->pos + 3 * (size_t)s->inst_pos[i];
-    const float *loc = s->loc + 3 * (size_t)s->inst_pos[i];
-    /* one pass of weighted moments: sum w, sum w y, sum w x, sum w y x^T, sum w |y|^2 */
-    double ws = 0, sy[3] = {0}, sx[3] = {0}, syx[9] = {0}, syy = 0;
-    for (int o = 0; o < n; o++) {
-        int j = ov[o], v = idx[j], c = s->cnt[v] - self_in_acc;
-        if (c < 1)
-            continue;
-        const float *y = loc + 3 * j;
-        const double *a = s->acc + 3 * (size_t)v;
-        double inv = 1.0 / c, x[3];
-        if (self_in_acc) {
-            x[0] = (a[0] - own[3 * j]) * inv;
-            x[1] = (a[1] - own[3 * j + 1]) * inv;
-            x[2] = (a[2] - own[3 * j + 2]) * inv;
-        } else {
-            x[0] = a[0] * inv;
-            x[1] = a[1] * inv;
-            x[2] = a[2] * inv;
-        }
-        ws += 1;
-        for (int r = 0; r < 3; r++) {
-            sy[r] += y[r];
-            sx[r] += x[r];
-            syy += (double)y[r] * y[r];
-            syx[3 * r] += y[r] * x[0];
-            syx[3 * r + 1] += y[r] * x[1];
-            syx[3 * r + 2] += y[r] * x[2];
-        }
-    }
     int nmk = 0;
     for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++)
         nmk += s->mvalid[s->imk_marker[e]];
@@ -315,13 +482,13 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
             int mk = s->imk_marker[e];
             if (!s->mvalid[mk])
                 continue;
-            const float *y = loc + 3 * s->imk_local[e];
+            const double *y = s->mloc + 3 * (size_t)e;
             const double *x = s->mb + 3 * mk;
             ws += w;
             for (int r = 0; r < 3; r++) {
                 sy[r] += w * y[r];
                 sx[r] += w * x[r];
-                syy += w * (double)y[r] * y[r];
+                syy += w * y[r] * y[r];
                 for (int c = 0; c < 3; c++)
                     syx[3 * r + c] += w * y[r] * x[c];
             }
@@ -345,62 +512,125 @@ static void align_instance(mdl_synth *s, int i, const int *ov, int n, int self_i
         t[r] = cx[r] - (R[3 * r] * cy[0] + R[3 * r + 1] * cy[1] + R[3 * r + 2] * cy[2]);
 }
 
+/* Greedy step: the overlap entries `ov` (n of them, indices into sov) of instance i go to the
+ * mean position of the instances placed before it. */
+static inline __attribute__((always_inline)) void align_greedy(mdl_synth *s, int i, const int *ov, int n)
+{
+    double ws = 0, sy[3] = {0}, sx[3] = {0}, syx[9] = {0}, syy = 0;
+    for (int o = 0; o < n; o++) {
+        int e = ov[o], v = s->sov_v[e], c = s->cnt[v];
+        if (c < 1)
+            continue;
+        const double *y = s->sloc + 4 * (size_t)e;
+        const double *a = s->acc + 4 * (size_t)v;
+        double inv = 1.0 / c, x[3] = {a[0] * inv, a[1] * inv, a[2] * inv};
+        ws += 1;
+        for (int r = 0; r < 3; r++) {
+            sy[r] += y[r];
+            sx[r] += x[r];
+            syy += y[r] * y[r];
+            syx[3 * r] += y[r] * x[0];
+            syx[3 * r + 1] += y[r] * x[1];
+            syx[3 * r + 2] += y[r] * x[2];
+        }
+    }
+    align_solve(s, i, ws, sy, sx, syx, syy);
+}
+
+/* Relaxation step: every overlap vertex of instance i goes to the mean position all other
+ * instances give it, (acc - own) / (cnt - 1) with the counts fixed after the greedy pass
+ * (sov_inv); sum y and sum |y|^2 come from update_local_needed. Row r of sum y x^T is the
+ * 4-vector sum y_r x. */
+static inline __attribute__((always_inline)) void align_relax(mdl_synth *s, int i)
+{
+    const struct mdl_model *m = s->m;
+    const double *restrict acc = s->acc, *restrict inv = s->sov_inv;
+    const double *restrict sloc = s->sloc, *restrict spos = s->spos;
+    const int *restrict sv = s->sov_v;
+    mdl__v4d sxv = {0, 0, 0, 0}, r0 = sxv, r1 = sxv, r2 = sxv;
+    int cnt = 0;
+    for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+        double w = inv[e];
+        if (!(w > 0))
+            continue;
+        const double *y = sloc + 4 * (size_t)e;
+        mdl__v4d a, own;
+        memcpy(&a, acc + 4 * (size_t)sv[e], sizeof a);
+        memcpy(&own, spos + 4 * (size_t)e, sizeof own);
+        mdl__v4d x = (a - own) * w;
+        cnt++;
+        sxv += x;
+        r0 += y[0] * x;
+        r1 += y[1] * x;
+        r2 += y[2] * x;
+    }
+    const double *ym = s->ymom + 4 * i;
+    double sy[3] = {ym[0], ym[1], ym[2]}, sx[3] = {sxv[0], sxv[1], sxv[2]};
+    double syx[9] = {r0[0], r0[1], r0[2], r1[0], r1[1], r1[2], r2[0], r2[1], r2[2]};
+    align_solve(s, i, (double)cnt, sy, sx, syx, ym[3]);
+}
+
 /* Sec. 5.1: greedy rigid alignment in the precomputed order, then `relax` sweeps in which every
  * instance is aligned again to all its neighbours (a block coordinate descent on the same
  * objective, which carries marker targets along the limb chains). The alignments between shape
  * steps get one sweep; the last one gets the model's full count. */
-static void relax_all(mdl_synth *s, int relax)
+static inline __attribute__((always_inline)) void relax_all(mdl_synth *s, int relax)
 {
     const struct mdl_model *m = s->m;
     for (int sweep = 0; sweep < relax; sweep++)
         for (int step = 0; step < m->ninst; step++) {
             int i = m->order[step];
-            align_instance(s, i, m->sov + m->sov_off[i], m->sov_off[i + 1] - m->sov_off[i], 1);
-            inst_emit(s, i, 2, 0);
+            align_relax(s, i);
+            inst_emit(s, i, 0);
         }
 }
 
-static void align_all(mdl_synth *s, int relax)
+static inline __attribute__((always_inline)) void emit_all(mdl_synth *s)
+{
+    for (int i = 0; i < s->m->ninst; i++)
+        inst_emit(s, i, 0);
+}
+
+static inline __attribute__((always_inline)) void align_all(mdl_synth *s, int relax)
 {
     const struct mdl_model *m = s->m;
     for (int e = 0; e < s->nshared; e++) { /* only shared vertices are ever accumulated */
         int v = s->shared[e];
-        s->acc[3 * (size_t)v] = s->acc[3 * (size_t)v + 1] = s->acc[3 * (size_t)v + 2] = 0;
+        memset(s->acc + 4 * (size_t)v, 0, 4 * sizeof(double));
         s->cnt[v] = 0;
     }
     for (int step = 0; step < m->ninst; step++) {
         int i = m->order[step];
-        align_instance(s, i, m->order_ov + m->order_ov_off[step],
-                       m->order_ov_off[step + 1] - m->order_ov_off[step], 0);
-        inst_emit(s, i, 1, 0);
+        align_greedy(s, i, s->oov_e + m->order_ov_off[step],
+                     m->order_ov_off[step + 1] - m->order_ov_off[step]);
+        inst_emit(s, i, 1);
     }
     relax_all(s, relax);
 }
 
 /* Sec. 5.2, eq. (7), for every instance with modes. */
-static void optimise_shapes(mdl_synth *s)
+static inline __attribute__((always_inline)) void optimise_shapes(mdl_synth *s)
 {
     const struct mdl_model *m = s->m;
     for (int i = 0; i < m->ninst; i++) {
         int p = m->inst_part[i], k = m->pmodes[p], n = m->pv_off[p + 1] - m->pv_off[p];
         if (k == 0)
             continue;
-        const int *idx = m->pv_idx + m->pv_off[p];
         const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
-        const float *pos = s->pos + 3 * (size_t)s->inst_pos[i];
         const double *sig2 = m->part_sigma2 + m->ps_off[p];
         const double *lamp = s->lamp + s->inst_lam[i];
         for (int a = 0; a < k; a++)
             s->rhs[a] = m->beta * lamp[a] / sig2[a];
-        for (int o = m->sov_off[i]; o < m->sov_off[i + 1]; o++) {
-            int j = m->sov[o], v = idx[j];
-            if (s->cnt[v] < 2)
+        for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+            int j = m->sov[e];
+            double w = s->sov_inv[e];
+            if (!(w > 0))
                 continue;
-            double x[3], d[3], loc[3];
-            for (int r = 0; r < 3; r++) { /* mean of the other instances' positions */
-                x[r] = (s->acc[3 * (size_t)v + r] - pos[3 * j + r]) / (s->cnt[v] - 1);
-                d[r] = x[r] - t[r];
-            }
+            const double *acc = s->acc + 4 * (size_t)s->sov_v[e];
+            const double *own = s->spos + 4 * (size_t)e;
+            double d[3], loc[3];
+            for (int r = 0; r < 3; r++) /* mean of the other instances' positions */
+                d[r] = (acc[r] - own[r]) * w - t[r];
             for (int c = 0; c < 3; c++)
                 loc[c] = R[c] * d[0] + R[3 + c] * d[1] + R[6 + c] * d[2];
             const float *mean = m->part_mean + 3 * ((size_t)m->pv_off[p] + j);
@@ -411,12 +641,108 @@ static void optimise_shapes(mdl_synth *s)
                              va[2] * (loc[2] - mean[2]);
             }
         }
-        if (mdl_la_potrs(k, 1, m->chol + m->chol_off[i], k, s->rhs, k, NULL) == 0)
+        if (mdl_la_potrs1(k, m->chol + m->chol_off[i], k, s->rhs) == 0)
             memcpy(s->lam + s->inst_lam[i], s->rhs, sizeof(double) * (size_t)k);
     }
     for (int i = 0; i < m->ninst; i++)
-        update_local(s, i);
+        update_local_needed(s, i);
 }
+
+/* The full local shape y = mean + V lambda (eq. 6) of an instance's n8 (padded) vertices, needed
+ * only by the blend, then w (W y + t) into lx, ly, lz, from the structure-of-arrays copies
+ * (mean: x, y, z blocks of n8; V: k such triples): four vertices at a time, or eight on AVX2
+ * (the same operations in the same order, so the same result). */
+/* Step 3 of the header: alternate alignment and shape optimisation. Compiled for plain x86-64
+ * and, on AVX2 machines, with one register per 4-vector (chosen in mdl_synth_create; the same
+ * operations in the same order, so the same result). */
+static inline __attribute__((always_inline)) void alternate_body(mdl_synth *s)
+{
+    const struct mdl_model *m = s->m;
+    for (int i = 0; i < m->ninst; i++)
+        update_local_needed(s, i);
+    align_all(s, m->iterations > 0 ? 1 : m->relax);
+    for (int it = 0; it < m->iterations; it++) {
+        optimise_shapes(s);
+        /* the new shapes replace the old in the accumulated positions; the transforms found so
+         * far are a good start, so sweeps suffice instead of another greedy pass */
+        emit_all(s);
+        relax_all(s, it + 1 < m->iterations ? 1 : m->relax);
+    }
+}
+
+static void alternate_base(mdl_synth *s)
+{
+    alternate_body(s);
+}
+
+#ifdef SYNTH_AVX2
+__attribute__((target("avx2"))) static void alternate_avx2(mdl_synth *s)
+{
+    alternate_body(s);
+}
+#endif
+
+static void blend_place4(int n8, int k, const float *mean, const float *V, const float *lam,
+                         const float *iw, const float W[9], const float tw[3], float *lx, float *ly,
+                         float *lz)
+{
+    for (int q = 0; q < n8; q += 4) {
+        mdl__v4f x, y, z, w;
+        memcpy(&x, mean + q, sizeof x);
+        memcpy(&y, mean + n8 + q, sizeof y);
+        memcpy(&z, mean + 2 * n8 + q, sizeof z);
+        for (int a = 0; a < k; a++) {
+            const float *va = V + (size_t)a * 3 * n8 + q;
+            mdl__v4f vx, vy, vz;
+            memcpy(&vx, va, sizeof vx);
+            memcpy(&vy, va + n8, sizeof vy);
+            memcpy(&vz, va + 2 * n8, sizeof vz);
+            x += lam[a] * vx;
+            y += lam[a] * vy;
+            z += lam[a] * vz;
+        }
+        memcpy(&w, iw + q, sizeof w);
+        mdl__v4f ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);
+        mdl__v4f oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);
+        mdl__v4f oz = w * (W[6] * x + W[7] * y + W[8] * z + tw[2]);
+        memcpy(lx + q, &ox, sizeof ox);
+        memcpy(ly + q, &oy, sizeof oy);
+        memcpy(lz + q, &oz, sizeof oz);
+    }
+}
+
+#ifdef SYNTH_AVX2
+__attribute__((target("avx2"))) static void blend_place8(int n8, int k, const float *mean,
+                                                         const float *V, const float *lam,
+                                                         const float *iw, const float W[9],
+                                                         const float tw[3], float *lx, float *ly,
+                                                         float *lz)
+{
+    for (int q = 0; q < n8; q += 8) {
+        mdl__v8f x, y, z, w;
+        memcpy(&x, mean + q, sizeof x);
+        memcpy(&y, mean + n8 + q, sizeof y);
+        memcpy(&z, mean + 2 * n8 + q, sizeof z);
+        for (int a = 0; a < k; a++) {
+            const float *va = V + (size_t)a * 3 * n8 + q;
+            mdl__v8f vx, vy, vz;
+            memcpy(&vx, va, sizeof vx);
+            memcpy(&vy, va + n8, sizeof vy);
+            memcpy(&vz, va + 2 * n8, sizeof vz);
+            x += lam[a] * vx;
+            y += lam[a] * vy;
+            z += lam[a] * vz;
+        }
+        memcpy(&w, iw + q, sizeof w);
+        mdl__v8f ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);
+        mdl__v8f oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);
+        mdl__v8f oz = w * (W[6] * x + W[7] * y + W[8] * z + tw[2]);
+        memcpy(lx + q, &ox, sizeof ox);
+        memcpy(ly + q, &oy, sizeof oy);
+        memcpy(lz + q, &oz, sizeof oz);
+    }
+}
+#endif
 
 int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, float *Vout,
                     mdl_synth_info *info)
@@ -504,17 +830,7 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
     memcpy(s->Pprev, s->P, sizeof(float) * 3 * (size_t)nm);
     s->have_prev = 1;
     /* 3. alternate alignment and shape optimisation */
-    for (int i = 0; i < m->ninst; i++)
-        update_local(s, i);
-    align_all(s, m->iterations > 0 ? 1 : m->relax);
-    for (int it = 0; it < m->iterations; it++) {
-        optimise_shapes(s);
-        /* the new shapes replace the old in the accumulated positions; the transforms found so
-         * far are a good start, so sweeps suffice instead of another greedy pass */
-        for (int i = 0; i < m->ninst; i++)
-            inst_emit(s, i, 2, 0);
-        relax_all(s, it + 1 < m->iterations ? 1 : m->relax);
-    }
+    s->alternate(s);
     /* 4-5. blend (eq. 8) and place in the markers' frame: every instance's transform is composed
      * with the placement, then its vertices are added into the output with their blend weights
      * (instance-major, so that the inner loop reads contiguous memory) */
@@ -533,7 +849,10 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
         memcpy(PR, s->Rb, sizeof PR);
         memcpy(Po, s->ob, sizeof Po);
     }
-    memset(Vout, 0, sizeof(float) * 3 * (size_t)m->nv);
+    for (int e = 0; e < s->nzero; e++) {
+        float *o = Vout + 3 * (size_t)s->zero[e];
+        o[0] = o[1] = o[2] = 0;
+    }
     for (int i = 0; i < m->ninst; i++) {
         const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
         float W[9], tw[3];
@@ -542,15 +861,27 @@ int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, fl
                 W[3 * r + k] = (float)(PR[3 * r] * R[k] + PR[3 * r + 1] * R[3 + k] + PR[3 * r + 2] * R[6 + k]);
             tw[r] = (float)(PR[3 * r] * t[0] + PR[3 * r + 1] * t[1] + PR[3 * r + 2] * t[2] + Po[r]);
         }
-        int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
-        const int *idx = m->pv_idx + m->pv_off[p];
-        const float *loc = s->loc + 3 * (size_t)s->inst_pos[i], *iw = s->iw + s->inst_pos[i];
-        for (int j = 0; j < n; j++) {
-            const float *y = loc + 3 * j;
-            float w = iw[j], *o = Vout + 3 * (size_t)idx[j];
-            o[0] += w * (W[0] * y[0] + W[1] * y[1] + W[2] * y[2] + tw[0]);
-            o[1] += w * (W[3] * y[0] + W[4] * y[1] + W[5] * y[2] + tw[1]);
-            o[2] += w * (W[6] * y[0] + W[7] * y[1] + W[8] * y[2] + tw[2]);
+        int p = m->inst_part[i], n8 = s->pn[p], k = m->pmodes[p];
+        float *lx = s->loc + s->iloc_off[i], *ly = lx + n8, *lz = ly + n8, *lam = s->flam;
+        const float *iw = s->iw + s->iloc_off[i] / 3, *mean = s->smean + s->smean_off[p];
+        const float *V = s->smodes + s->smode_off[p];
+        for (int a = 0; a < k; a++)
+            lam[a] = (float)s->lam[s->inst_lam[i] + a];
+        s->place(n8, k, mean, V, lam, iw, W, tw, lx, ly, lz);
+        const int *bj = s->bl_j, *bv = s->bl_v;
+        for (int e = s->bl_off[2 * i]; e < s->bl_off[2 * i + 1]; e++) { /* its own vertices */
+            int j = bj[e];
+            float *o = Vout + 3 * (size_t)bv[e];
+            o[0] = lx[j];
+            o[1] = ly[j];
+            o[2] = lz[j];
+        }
+        for (int e = s->bl_off[2 * i + 1]; e < s->bl_off[2 * i + 2]; e++) { /* shared ones */
+            int j = bj[e];
+            float *o = Vout + 3 * (size_t)bv[e];
+            o[0] += lx[j];
+            o[1] += ly[j];
+            o[2] += lz[j];
         }
     }
     return 0;

@@ -46,11 +46,39 @@ static void test_cholesky(void)
     ASSERT(strstr(err, "index 2") != NULL);
 }
 
+static void test_potrs1(void)
+{
+    /* a 4x4 SPD system (ld 5, so the leading dimension is honoured): the substitution agrees
+     * with LAPACK's dpotrs on the same factor */
+    double A[20] = {0}, b[4] = {1, -2, 3, 0.5}, b0[4] = {1, -2, 3, 0.5}, c[4];
+    double M[4][4] = {{6, 1, 0.5, 0}, {1, 5, 1, 0.3}, {0.5, 1, 4, 0.2}, {0, 0.3, 0.2, 3}};
+    char err[MDL_ERR_LEN] = "";
+    for (int r = 0; r < 4; r++)
+        for (int k = 0; k < 4; k++)
+            A[r + 5 * k] = M[r][k];
+    ASSERT_OK(mdl_la_potrf(4, A, 5, err), err);
+    for (int r = 0; r < 4; r++)
+        c[r] = b[r];
+    ASSERT_OK(mdl_la_potrs(4, 1, A, 5, c, 4, err), err);
+    ASSERT_INT_EQ(mdl_la_potrs1(4, A, 5, b), 0);
+    for (int r = 0; r < 4; r++) {
+        ASSERT_NEAR(b[r], c[r], 1e-12);
+        double s = 0; /* and it solves the system */
+        for (int k = 0; k < 4; k++)
+            s += M[r][k] * b[k];
+        ASSERT_NEAR(s, b0[r], 1e-12);
+    }
+    /* a zero pivot is refused, the right-hand side is not trusted */
+    double Z[4] = {0, 0, 0, 1}, z[2] = {1, 1};
+    ASSERT_INT_EQ(mdl_la_potrs1(2, Z, 2, z), MDL_ENUMERIC);
+}
+
 int main(void)
 {
     test_gemm();
     test_syev();
     test_cholesky();
+    test_potrs1();
     printf("linalg: ok\n");
     return 0;
 }
