@@ -132,4 +132,8 @@ struct mdl_model {
 /* Frees everything a model holds; NULL is fine. */
 void mdl__model_free(struct mdl_model *m);
 
+/* Makes s use the plain x86-64 variant of synthesis even on an AVX2 machine (tests: both
+ * variants must give identical frames). */
+void mdl__synth_portable(mdl_synth *s);
+
 #endif

@@ -165,6 +165,12 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s);
 }
 
+void mdl__synth_portable(mdl_synth *s)
+{
+    s->place = blend_place4;
+    s->alternate = alternate_base;
+}
+
 int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
 {
     *out = NULL;

@@ -2,6 +2,7 @@
  * training, synthesis of held-out frames against the nearest-frame baseline, the model file
  * round trip and its validation, the topology check, occlusion and noise. */
 #include "model.h"
+#include "model_internal.h"
 #include "test.h"
 #include "tube.h"
 
@@ -73,9 +74,12 @@ int main(void)
     ASSERT_OK(mdl_model_save(m, path, err), err);
     mdl_model *m2;
     ASSERT_OK(mdl_model_load(path, &m2, err), err);
-    mdl_synth *a, *b;
+    mdl_synth *a, *b, *c;
     ASSERT_OK(mdl_synth_create(m, &a, err), err);
     ASSERT_OK(mdl_synth_create(m2, &b, err), err);
+    ASSERT_OK(mdl_synth_create(m, &c, err), err);
+    mdl__synth_portable(c); /* the variant without AVX2 gives the same frames */
+    float *Vc = malloc(sizeof(float) * 3 * (size_t)s->nv);
     float mk[9], *Va = malloc(sizeof(float) * 3 * (size_t)s->nv), *Vb = malloc(sizeof(float) * 3 * (size_t)s->nv);
     /* the per-frame path allocates nothing: the heap in use is the same after 5 frames
      * (meaningful without ASan, whose allocator mallinfo2 does not see) */
@@ -86,6 +90,8 @@ int main(void)
         ASSERT_OK(mdl_synth_frame(a, mk, NULL, Va, NULL), "synth");
         ASSERT_OK(mdl_synth_frame(b, mk, NULL, Vb, NULL), "synth");
         ASSERT(memcmp(Va, Vb, sizeof(float) * 3 * (size_t)s->nv) == 0);
+        ASSERT_OK(mdl_synth_frame(c, mk, NULL, Vc, NULL), "synth");
+        ASSERT(memcmp(Va, Vc, sizeof(float) * 3 * (size_t)s->nv) == 0);
     }
     struct mallinfo2 after = mallinfo2();
     ASSERT_INT_EQ(after.uordblks, before.uordblks);
@@ -105,6 +111,8 @@ int main(void)
         ASSERT(isfinite(Va[v]));
     mdl_synth_destroy(a);
     mdl_synth_destroy(b);
+    mdl_synth_destroy(c);
+    free(Vc);
 
     /* corrupted files: every truncation and a sweep of byte changes are refused or load cleanly */
     {
