@@ -124,40 +124,44 @@ void drv__grid_fini(drv__grid *g)
 
 void drv__segment_sample(drv__grid *g, const drv_depth_opts *o, const uint16_t *depth_mm)
 {
-    const int W = o->k.width, s = g->step;
-    const int a = s / 4, b = (3 * s) / 4;
-    const int offs[4][2] = {{a, a}, {b, a}, {a, b}, {b, b}};
+    const int W = o->k.width, s = g->step, gw = g->gw;
+    const int a = s / 4, b = (3 * s) / 4, db = b - a;
     const uint16_t zmin = (uint16_t)fminf(65535.f, o->z_min * 1000.f);
     const uint16_t zmax = (uint16_t)fminf(65535.f, o->z_max * 1000.f);
     const float ifx = (float)(1.0 / o->k.fx), ify = (float)(1.0 / o->k.fy);
     const float cx = (float)o->k.cx, cy = (float)o->k.cy;
+    /* Branch-free: a probe's key is (d - lo) mod 2^16 << 2 | its index, so that the smallest key
+     * is the nearest reading in the gate [lo, zmax] (the first probe on ties), and a smallest
+     * key of lim or more means that no probe passed. lo is at least 1: 0 is no reading. */
+    const uint32_t lo = zmin ? zmin : 1u;
+    const uint32_t lim = zmax >= lo ? (zmax - lo + 1u) << 2 : 0u; /* keys below it passed */
+    memset(g->comp, 0xff, (size_t)g->n * sizeof *g->comp); /* -1 */
+    memset(g->person, 0, (size_t)g->n);
     for (int gy = 0; gy < g->gh; gy++) {
-        for (int gx = 0; gx < g->gw; gx++) {
-            int i = gy * g->gw + gx;
-            uint16_t best = 0;
-            int bu = gx * s + a, bv = gy * s + a;
-            for (int k = 0; k < 4; k++) {
-                int u = gx * s + offs[k][0], v = gy * s + offs[k][1];
-                uint16_t d = depth_mm[(size_t)v * W + u];
-                if (d >= zmin && d <= zmax && (best == 0 || d < best)) {
-                    best = d;
-                    bu = u;
-                    bv = v;
-                }
-            }
-            g->px[2 * i] = (uint16_t)bu;
-            g->px[2 * i + 1] = (uint16_t)bv;
-            g->comp[i] = -1;
-            g->person[i] = 0;
-            if (!best) {
-                g->z[i] = 0;
+        const int va = gy * s + a;
+        const uint16_t *ra = depth_mm + (size_t)va * W + a, *rb = ra + (size_t)db * W;
+        uint16_t *px = g->px + 2 * gy * gw;
+        float *zr = g->z + gy * gw, *P = g->P + 3 * gy * gw;
+        const float fy[2] = {-((float)va - cy), -((float)(va + db) - cy)};
+        for (int gx = 0, u0 = 0; gx < gw; gx++, u0 += s) {
+            uint32_t k0 = (uint32_t)(uint16_t)(ra[u0] - lo) << 2;
+            uint32_t k1 = (uint32_t)(uint16_t)(ra[u0 + db] - lo) << 2 | 1u;
+            uint32_t k2 = (uint32_t)(uint16_t)(rb[u0] - lo) << 2 | 2u;
+            uint32_t k3 = (uint32_t)(uint16_t)(rb[u0 + db] - lo) << 2 | 3u;
+            uint32_t m01 = k0 < k1 ? k0 : k1, m23 = k2 < k3 ? k2 : k3;
+            uint32_t m = m01 < m23 ? m01 : m23;
+            const int ok = m < lim, k = ok ? (int)(m & 3u) : 0, bu = u0 + a + (k & 1) * db;
+            px[2 * gx] = (uint16_t)bu;
+            px[2 * gx + 1] = (uint16_t)(va + (k >> 1) * db);
+            if (!ok) {
+                zr[gx] = 0;
                 continue;
             }
-            float z = best * 0.001f;
-            g->z[i] = z;
-            g->P[3 * i] = ((float)bu - cx) * z * ifx;
-            g->P[3 * i + 1] = -((float)bv - cy) * z * ify;
-            g->P[3 * i + 2] = -z;
+            float z = (float)((m >> 2) + lo) * 0.001f;
+            zr[gx] = z;
+            P[3 * gx] = ((float)bu - cx) * z * ifx;
+            P[3 * gx + 1] = fy[k >> 1] * z * ify;
+            P[3 * gx + 2] = -z;
         }
     }
 }
