@@ -71,10 +71,11 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     g->c_area = malloc(n * sizeof *g->c_area);
     g->c_sumz = malloc(n * sizeof *g->c_sumz);
     g->c_count = malloc(n * sizeof *g->c_count);
+    g->c_last = malloc(n * sizeof *g->c_last);
     g->hole = malloc(n * sizeof *g->hole);
     g->hole_cells = malloc(n * sizeof *g->hole_cells);
     if (!g->P || !g->z || !g->px || !g->comp || !g->person || !g->stack || !g->cells ||
-        !g->c_area || !g->c_sumz || !g->c_count || !g->hole || !g->hole_cells) {
+        !g->c_area || !g->c_sumz || !g->c_count || !g->c_last || !g->hole || !g->hole_cells) {
         drv__grid_fini(g);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for a %dx%d grid", o->k.width,
@@ -117,6 +118,7 @@ void drv__grid_fini(drv__grid *g)
     free(g->c_area);
     free(g->c_sumz);
     free(g->c_count);
+    free(g->c_last);
     free(g->hole);
     free(g->hole_cells);
     memset(g, 0, sizeof *g);
@@ -177,10 +179,12 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
             g->stack[nc++] = i;
     if (nc < 64)
         return 0;
-    /* a fixed random subset for scoring, in g->cells (free until drv__segment_person) */
+    /* a fixed random subset for scoring */
     int m = nc < FLOOR_SUBSET ? nc : FLOOR_SUBSET;
+    float sub[3 * FLOOR_SUBSET]; /* their points, contiguous */
     for (int k = 0; k < m; k++)
-        g->cells[k] = g->stack[(int)(drv__rand01(rng) * nc)];
+        memcpy(sub + 3 * k, g->P + 3 * g->stack[(int)(drv__rand01(rng) * nc)], 3 * sizeof *sub);
+    const float tol = o->floor_tol;
     const float cos_tilt = cosf(o->floor_max_tilt * (float)M_PI / 180.f);
     int best = 0;
     float bp[4] = {0, 1, 0, 0};
@@ -204,16 +208,17 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
         if (ny < cos_tilt)
             continue;
         float d = -(nx * A[0] + ny * A[1] + nz * A[2]);
-        int cnt = 0, below = 0;
-        for (int k = 0; k < m; k++) {
-            const float *p = g->P + 3 * g->cells[k];
+        /* score on the subset; stop as soon as too much lies below (a floor has (almost)
+         * nothing below it) or the rest of the subset could not beat the best */
+        int cnt = 0, below = 0, k = 0;
+        const int below_max = m / 20;
+        for (; k < m && below <= below_max && cnt + (m - k) > best; k++) {
+            const float *p = sub + 3 * k;
             float h = nx * p[0] + ny * p[1] + nz * p[2] + d;
-            if (fabsf(h) < o->floor_tol)
-                cnt++;
-            else if (h < 0)
-                below++;
+            cnt += fabsf(h) < tol;
+            below += h < 0 && !(fabsf(h) < tol);
         }
-        if (below * 20 > m) /* a floor has (almost) nothing below it */
+        if (below > below_max || cnt <= best)
             continue;
         if (cnt > best) {
             best = cnt;
@@ -226,20 +231,34 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
     if (best * 4 < m)
         return 0;
     /* refine: least squares y = a x + b z + c over all inliers (the floor is near-horizontal) */
-    double S[3][3] = {{0}}, r[3] = {0};
+    double S[3][3], r[3];
+    double sxx = 0, sxz = 0, szz = 0, sx = 0, sz = 0, sxy = 0, szy = 0, sy = 0;
     int cnt = 0;
     for (int k = 0; k < nc; k++) {
         const float *p = g->P + 3 * g->stack[k];
-        if (fabsf(bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3]) >= o->floor_tol)
+        if (fabsf(bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3]) >= tol)
             continue;
-        double q[3] = {p[0], p[2], 1.0};
-        for (int i = 0; i < 3; i++) {
-            for (int j = 0; j < 3; j++)
-                S[i][j] += q[i] * q[j];
-            r[i] += q[i] * p[1];
-        }
+        /* the sums of q q^T and q y for q = (x, z, 1), y: S is symmetric */
+        const double x = p[0], y = p[1], zz = p[2];
+        sxx += x * x;
+        sxz += x * zz;
+        szz += zz * zz;
+        sx += x;
+        sz += zz;
+        sxy += x * y;
+        szy += zz * y;
+        sy += y;
         cnt++;
     }
+    S[0][0] = sxx;
+    S[0][1] = S[1][0] = sxz;
+    S[0][2] = S[2][0] = sx;
+    S[1][1] = szz;
+    S[1][2] = S[2][1] = sz;
+    S[2][2] = cnt;
+    r[0] = sxy;
+    r[1] = szy;
+    r[2] = sy;
     double det = S[0][0] * (S[1][1] * S[2][2] - S[1][2] * S[2][1]) -
                  S[0][1] * (S[1][0] * S[2][2] - S[1][2] * S[2][0]) +
                  S[0][2] * (S[1][0] * S[2][1] - S[1][1] * S[2][0]);
@@ -263,10 +282,8 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
     }
     memcpy(plane, bp, sizeof bp);
     for (int i = 0; i < g->n; i++) {
-        if (g->z[i] <= 0)
-            continue;
         const float *p = g->P + 3 * i;
-        if (bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3] < o->floor_tol)
+        if (g->z[i] > 0 && bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3] < tol)
             g->z[i] = 0;
     }
     return 1;
@@ -277,11 +294,12 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     const int gw = g->gw, gh = g->gh;
     const float jump = o->seg_jump;
     const double sx = g->step / o->k.fx, sy = g->step / o->k.fy;
+    const int off[8] = {-gw - 1, -gw, -gw + 1, -1, 1, gw - 1, gw, gw + 1}; /* the scan order */
     int ncomp = 0;
     for (int i = 0; i < g->n; i++) {
         if (g->z[i] <= 0 || g->comp[i] >= 0)
             continue;
-        int c = ncomp++, top = 0, count = 0;
+        int c = ncomp++, top = 0, count = 0, last = i; /* i: its first cell in scan order */
         double area = 0, sumz = 0;
         g->comp[i] = c;
         g->stack[top++] = i;
@@ -289,9 +307,20 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
             int j = g->stack[--top];
             float zj = g->z[j];
             count++;
+            last = j > last ? j : last;
             area += zj * sx * zj * sy;
             sumz += zj;
             int x = j % gw, y = j / gw;
+            if (x > 0 && y > 0 && x < gw - 1 && y < gh - 1) { /* inside: no bounds to test */
+                for (int d = 0; d < 8; d++) {
+                    int k = j + off[d];
+                    if (g->comp[k] >= 0 || g->z[k] <= 0 || fabsf(g->z[k] - zj) >= jump)
+                        continue;
+                    g->comp[k] = c;
+                    g->stack[top++] = k;
+                }
+                continue;
+            }
             for (int dy = -1; dy <= 1; dy++) {
                 int yy = y + dy;
                 if (yy < 0 || yy >= gh)
@@ -311,6 +340,7 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
         g->c_area[c] = (float)area;
         g->c_sumz[c] = (float)sumz;
         g->c_count[c] = count;
+        g->c_last[c] = last;
     }
     g->ncells = 0;
     g->mean_z = 0;
@@ -332,7 +362,10 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     if (best < 0)
         return 0;
     double cs[3] = {0, 0, 0};
-    for (int i = 0; i < g->n; i++) {
+    int first = 0;
+    while (g->comp[first] != best)
+        first++;
+    for (int i = first; i <= g->c_last[best]; i++) {
         if (g->comp[i] != best)
             continue;
         g->person[i] = 1;
@@ -347,8 +380,20 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     const int nmain = g->ncells;
     const float amax_attach = o->attach_frac * g->c_area[best];
     int nattach = 0;
+    const int off9[9] = {-gw - 1, -gw, -gw + 1, -1, 0, 1, gw - 1, gw, gw + 1};
     for (int k = 0; k < nmain && o->attach_jump > 0; k++) {
         int j = g->cells[k], x = j % gw, y = j / gw;
+        if (x > 0 && y > 0 && x < gw - 1 && y < gh - 1) { /* inside: no bounds to test */
+            for (int d = 0; d < 9; d++) {
+                int i = j + off9[d], c = g->comp[i];
+                if (c == best || c < 0 || g->c_count[c] < 0 || g->c_area[c] > amax_attach ||
+                    fabsf(g->z[i] - g->z[j]) >= o->attach_jump)
+                    continue;
+                g->c_count[c] = -g->c_count[c];
+                nattach++;
+            }
+            continue;
+        }
         for (int dy = -1; dy <= 1; dy++) {
             int yy = y + dy;
             if (yy < 0 || yy >= gh)
