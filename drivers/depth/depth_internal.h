@@ -86,6 +86,7 @@ typedef struct drv__geodesic {
     int *next, *prev; /* n */
     int *slot;        /* n: a queued cell's ring slot, -1 = not queued */
     int *bucket;      /* nb */
+    uint64_t *full;   /* nb / 64 (at least 1): bit i set = bucket[i] is not empty */
     int nb;           /* a power of two */
     long cur;         /* the bucket (absolute: floor(dist / q)) being emptied */
     float iq;         /* 1 / q */

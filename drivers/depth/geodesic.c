@@ -65,13 +65,14 @@ int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *
     ge->prev = malloc((size_t)n * sizeof *ge->prev);
     ge->slot = malloc((size_t)n * sizeof *ge->slot);
     ge->bucket = malloc((size_t)ge->nb * sizeof *ge->bucket);
+    ge->full = calloc((size_t)(ge->nb + 63) / 64, sizeof *ge->full);
     ge->w = malloc((size_t)n * 8 * sizeof *ge->w);
     ge->bw = malloc((size_t)n * 2 * sizeof *ge->bw);
     ge->bt = malloc((size_t)n * 2 * sizeof *ge->bt);
     ge->h = malloc((size_t)n * sizeof *ge->h);
     ge->hmax = malloc((size_t)n * sizeof *ge->hmax);
-    if (!ge->dist || !ge->parent || !ge->next || !ge->prev || !ge->slot || !ge->bucket || !ge->w ||
-        !ge->bw || !ge->bt || !ge->h || !ge->hmax) {
+    if (!ge->dist || !ge->parent || !ge->next || !ge->prev || !ge->slot || !ge->bucket ||
+        !ge->full || !ge->w || !ge->bw || !ge->bt || !ge->h || !ge->hmax) {
         drv__geodesic_fini(ge);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for the geodesic graph (%d cells)", n);
@@ -95,6 +96,7 @@ void drv__geodesic_fini(drv__geodesic *ge)
     free(ge->prev);
     free(ge->slot);
     free(ge->bucket);
+    free(ge->full);
     free(ge->w);
     free(ge->bw);
     free(ge->bt);
@@ -107,7 +109,8 @@ void drv__geodesic_fini(drv__geodesic *ge)
  * ordering"]: cells are kept in buckets of width q by floor(dist / q), and popped bucket after
  * bucket. When q is below the shortest edge, no cell can improve another of its own bucket, so
  * the order inside a bucket does not matter and the distances are exactly Dijkstra's - at O(1)
- * per queue operation instead of a heap's O(log n). */
+ * per queue operation instead of a heap's O(log n). A bitmap of the non-empty buckets lets a pop
+ * skip 64 empty buckets at a time. */
 
 float drv__geodesic_quantum(const drv_depth_opts *o, int step, float z_near)
 {
@@ -120,10 +123,14 @@ float drv__geodesic_quantum(const drv_depth_opts *o, int step, float z_near)
 static void queue_remove(drv__geodesic *ge, int c)
 {
     int p = ge->prev[c], nx = ge->next[c];
-    if (p >= 0)
+    if (p >= 0) {
         ge->next[p] = nx;
-    else
-        ge->bucket[ge->slot[c]] = nx;
+    } else {
+        int sl = ge->slot[c];
+        ge->bucket[sl] = nx;
+        if (nx < 0)
+            ge->full[sl >> 6] &= ~(1ull << (sl & 63));
+    }
     if (nx >= 0)
         ge->prev[nx] = p;
     ge->slot[c] = -1;
@@ -146,15 +153,25 @@ static void queue_push(drv__geodesic *ge, int c)
     ge->next[c] = ge->bucket[sl];
     if (ge->bucket[sl] >= 0)
         ge->prev[ge->bucket[sl]] = c;
+    else
+        ge->full[sl >> 6] |= 1ull << (sl & 63);
     ge->bucket[sl] = c;
     ge->hn++;
 }
 
+/* Pops a cell of the first non-empty bucket from `cur` on (the queue holds a cell): the bitmap
+ * `full` is searched a word at a time, around the ring. */
 static int queue_pop(drv__geodesic *ge)
 {
-    int sl;
-    while (ge->bucket[sl = (int)(ge->cur & (ge->nb - 1))] < 0)
-        ge->cur++;
+    const int mask = ge->nb - 1, s = (int)(ge->cur & mask), nw = (ge->nb + 63) >> 6;
+    int w = s >> 6, sl;
+    uint64_t b = ge->full[w] & (~0ull << (s & 63));
+    while (!b) {
+        w = w + 1 < nw ? w + 1 : 0;
+        b = ge->full[w];
+    }
+    sl = (w << 6) + __builtin_ctzll(b);
+    ge->cur += (sl - s) & mask;
     int c = ge->bucket[sl];
     queue_remove(ge, c);
     return c;
@@ -259,8 +276,9 @@ static void run(drv__geodesic *ge, const drv__grid *g, float radius, double *tip
             (*ntip)++;
         }
         const float *wu = ge->w + 8 * u;
+        /* no edge leaves the grid: off[d] stays inside */
         for (int d = 0; d < 8; d++)
-            if (wu[d] != FLT_MAX) /* no edge leaves the grid: off[d] stays inside */
+            if (wu[d] != FLT_MAX)
                 relax(ge, u, u + off[d], du + wu[d], first);
         for (int side = 0; side < 2; side++)
             if (ge->bt[2 * u + side] >= 0)
