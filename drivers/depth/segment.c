@@ -434,8 +434,13 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
         return 0;
     /* work inside the person's bounding box grown by a cell (all beyond it is outside) */
     int x0 = gw, x1 = -1, y0 = gh, y1 = -1;
-    for (int k = 0; k < g->ncells; k++) {
-        int x = g->cells[k] % gw, y = g->cells[k] / gw;
+    for (int k = 0, y = 0, row = 0; k < g->ncells; k++) { /* cells ascend: row follows them */
+        const int c = g->cells[k];
+        if (c < row || c >= row + gw) {
+            y = c / gw;
+            row = y * gw;
+        }
+        const int x = c - row;
         x0 = x < x0 ? x : x0;
         x1 = x > x1 ? x : x1;
         y0 = y < y0 ? y : y0;
@@ -445,31 +450,40 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
     y0 = y0 > 0 ? y0 - 1 : 0;
     x1 = x1 < gw - 1 ? x1 + 1 : gw - 1;
     y1 = y1 < gh - 1 ? y1 + 1 : gh - 1;
-    /* the outside: flood from the box's rim through non-person cells (4-neighbour); -2 = outside */
+    /* the outside: flood from the box's rim through non-person cells (4-neighbour); -2 = outside.
+     * The stack holds y << 16 | x (no division per cell). */
     int top = 0;
-    for (int y = y0; y <= y1; y++)
+    for (int y = y0; y <= y1; y++) {
+        const int rim = y == y0 || y == y1;
         for (int x = x0; x <= x1; x++) {
             int i = y * gw + x;
             g->hole[i] = -1;
-            if (!g->person[i] && (x == x0 || y == y0 || x == x1 || y == y1)) {
+            if (!g->person[i] && (rim || x == x0 || x == x1)) {
                 g->hole[i] = -2;
-                g->stack[top++] = i;
+                g->stack[top++] = y << 16 | x;
             }
         }
-    static const int d4[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    }
     while (top) {
-        int j = g->stack[--top], x = j % gw, y = j / gw;
-        for (int k = 0; k < 4; k++) {
-            int xx = x + d4[k][0], yy = y + d4[k][1];
-            if (xx < x0 || yy < y0 || xx > x1 || yy > y1)
-                continue;
-            int i = yy * gw + xx;
-            if (g->person[i] || g->hole[i] != -1)
-                continue;
-            g->hole[i] = -2;
-            g->stack[top++] = i;
+        const int p = g->stack[--top], x = p & 0xffff, y = p >> 16, j = y * gw + x;
+        if (x < x1 && !g->person[j + 1] && g->hole[j + 1] == -1) {
+            g->hole[j + 1] = -2;
+            g->stack[top++] = p + 1;
+        }
+        if (x > x0 && !g->person[j - 1] && g->hole[j - 1] == -1) {
+            g->hole[j - 1] = -2;
+            g->stack[top++] = p - 1;
+        }
+        if (y < y1 && !g->person[j + gw] && g->hole[j + gw] == -1) {
+            g->hole[j + gw] = -2;
+            g->stack[top++] = p + (1 << 16);
+        }
+        if (y > y0 && !g->person[j - gw] && g->hole[j - gw] == -1) {
+            g->hole[j - gw] = -2;
+            g->stack[top++] = p - (1 << 16);
         }
     }
+    static const int d4[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
     /* the holes, one at a time: flood, then measure */
     const float z = g->mean_z;
     const float cell_m = z * (float)g->step / (float)o->k.fx; /* a cell's size at the person */
@@ -483,8 +497,11 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
         return 0;
     ux /= un, uy /= un, rx /= rn, ry /= rn;
     int nout = 0, nh = 0;
-    for (int s0 = y0 * gw + x0; s0 <= y1 * gw + x1 && nh < LOOP_MAX_HOLES; s0++) {
-        if (s0 % gw < x0 || s0 % gw > x1 || g->person[s0] || g->hole[s0] != -1)
+    /* the box's cells row by row (x wraps to x0 and y steps on at the row's end) */
+    for (int y = y0, x = x0; y <= y1 && nh < LOOP_MAX_HOLES;
+         x = x < x1 ? x + 1 : x0, y += x == x0) {
+        const int s0 = y * gw + x;
+        if (g->person[s0] || g->hole[s0] != -1)
             continue;
         int id = nh++, count = 0, b = s0, oc = s0;
         float bh = FLT_MAX, ol = 0, su = 0, sv = 0, zlo = FLT_MAX, zhi = 0;
@@ -501,8 +518,9 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
                     continue;
                 int i = yy * gw + xx;
                 if (g->person[i]) { /* the loop's rim */
-                    zlo = fminf(zlo, g->z[i]);
-                    zhi = fmaxf(zhi, g->z[i]);
+                    const float zi = g->z[i];
+                    zlo = zi < zlo ? zi : zlo;
+                    zhi = zi > zhi ? zi : zhi;
                     continue;
                 }
                 if (g->hole[i] != -1)
