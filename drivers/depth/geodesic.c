@@ -192,23 +192,32 @@ static void edges(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o
         for (int d = 0; d < 8; d++)
             ge->w[8 * c + d] = FLT_MAX;
     }
-    for (int k = 0; k < g->ncells; k++) {
-        int u = g->cells[k], x = u % gw, y = u / gw;
+    const float seg_jump = o->seg_jump, attach_jump = o->attach_jump, max_jump = o->max_jump;
+    for (int k = 0, y = 0, row = 0; k < g->ncells; k++) {
+        const int u = g->cells[k];
+        if (u < row || u >= row + gw) { /* cells mostly ascend: the row follows them */
+            y = u / gw;
+            row = y * gw;
+        }
+        const int x = u - row;
         const float *pu = g->P + 3 * u;
         const float zu = g->z[u];
-        for (int d = 4; d < 8; d++) { /* the forward half; 7 - d is the way back */
-            int xx = x + NBR[d][0], yy = y + NBR[d][1];
-            if (xx < 0 || yy < 0 || xx >= gw || yy >= gh)
+        /* the forward half, d = 4..7: (+1, 0), (-1, +1), (0, +1), (+1, +1); 7 - d is the way
+         * back. inside[] says which of them lie in the grid. */
+        const int r = x < gw - 1, dn = y < gh - 1;
+        const int inside[4] = {r, x > 0 && dn, dn, r && dn};
+        for (int d = 4; d < 8; d++) {
+            if (!inside[d - 4])
                 continue;
-            int v = yy * gw + xx;
+            const int v = u + NBR[d][1] * gw + NBR[d][0];
             if (!g->person[v])
                 continue;
             float jz = fabsf(g->z[v] - zu);
-            if (jz >= o->seg_jump && (g->comp[v] == g->comp[u] || jz >= o->attach_jump))
+            if (jz >= seg_jump && (g->comp[v] == g->comp[u] || jz >= attach_jump))
                 continue;
             const float *pv = g->P + 3 * v;
             float ex = pv[0] - pu[0], ey = pv[1] - pu[1], ez = pv[2] - pu[2];
-            float wt = sqrtf(ex * ex + ey * ey + ez * ez) + (jz >= o->max_jump ? o->jump_penalty : 0.f);
+            float wt = sqrtf(ex * ex + ey * ey + ez * ez) + (jz >= max_jump ? o->jump_penalty : 0.f);
             ge->w[8 * u + d] = wt;
             ge->w[8 * v + 7 - d] = wt;
         }
@@ -328,7 +337,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
     for (int k = 0; k < g->ncells; k++) {
         int c = g->cells[k];
         const float *p = g->P + 3 * c;
-        z_near = fminf(z_near, g->z[c]);
+        z_near = g->z[c] < z_near ? g->z[c] : z_near;
         ge->dist[c] = FLT_MAX;
         ge->parent[c] = -1;
         ge->slot[c] = -1;
