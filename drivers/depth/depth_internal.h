@@ -79,7 +79,9 @@ struct drv__extremum {
 
 typedef struct drv__geodesic {
     int n;
-    float *dist;   /* n */
+    float *dist;   /* n, in dist_mem after a margin of pad cells (FLT_MAX) */
+    float *dist_mem;
+    int pad;
     int *parent;   /* n */
     /* the queue: Dial's buckets of width q (geodesic.c), a ring of nb lists linked through
        next/prev; bucket[i] is the first cell of ring slot i or -1 */
@@ -93,7 +95,7 @@ typedef struct drv__geodesic {
     float *w;         /* n x 8: this frame's edge weights to the 8 neighbours (NBR order of
                          geodesic.c), FLT_MAX = no edge */
     float *bw;        /* n x 2: weights of the bridges up and down the column (FLT_MAX = none), */
-    int *bt;          /*        and the cells they reach */
+    int *bt;          /*        and the cells they reach (the cell itself when none) */
     float *h;      /* n: height of a person cell above the source along `up` */
     float *hmax;   /* n: highest h along the cell's shortest path from the source (first pass) */
     int hn;        /* cells queued */

@@ -59,7 +59,11 @@ int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *
     ge->nb = 1;
     while (ge->nb < span && ge->nb < (1 << 24))
         ge->nb <<= 1;
-    ge->dist = malloc((size_t)n * sizeof *ge->dist);
+    /* dist has a margin of a grid row and a cell on both sides: a cell on the grid's rim reads
+     * its neighbours' distances through the edges it does not have (FLT_MAX, see run) */
+    ge->pad = o->k.width / smin + 1;
+    ge->dist_mem = malloc(((size_t)n + 2 * (size_t)ge->pad) * sizeof *ge->dist_mem);
+    ge->dist = ge->dist_mem ? ge->dist_mem + ge->pad : NULL;
     ge->parent = malloc((size_t)n * sizeof *ge->parent);
     ge->next = malloc((size_t)n * sizeof *ge->next);
     ge->prev = malloc((size_t)n * sizeof *ge->prev);
@@ -78,8 +82,9 @@ int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for the geodesic graph (%d cells)", n);
         return -ENOMEM;
     }
+    for (int i = 0; i < n + 2 * ge->pad; i++)
+        ge->dist_mem[i] = FLT_MAX;
     for (int i = 0; i < n; i++) {
-        ge->dist[i] = FLT_MAX;
         ge->slot[i] = -1;
         ge->parent[i] = -1;
     }
@@ -90,7 +95,7 @@ int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *
 
 void drv__geodesic_fini(drv__geodesic *ge)
 {
-    free(ge->dist);
+    free(ge->dist_mem);
     free(ge->parent);
     free(ge->next);
     free(ge->prev);
@@ -228,8 +233,8 @@ static void edges(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o
         const float zu = g->z[u];
         for (int side = 0; side < 2; side++) {
             const int dy = side ? 1 : -1, d = side ? 6 : 1;
-            ge->bw[2 * u + side] = FLT_MAX;
-            ge->bt[2 * u + side] = -1;
+            ge->bw[2 * u + side] = FLT_MAX; /* none: an edge to itself that never relaxes */
+            ge->bt[2 * u + side] = u;
             if (bridge < 2 || ge->w[8 * u + d] == FLT_MAX || !(g->z[u + dy * gw] < zu - o->max_jump))
                 continue;
             for (int t = 2; t <= bridge; t++) { /* across the occluder to the first cell at zu */
@@ -284,14 +289,13 @@ static void run(drv__geodesic *ge, const drv__grid *g, float radius, double *tip
             tip[2] += pu[2];
             (*ntip)++;
         }
+        /* A missing edge weighs FLT_MAX, so du + FLT_MAX = FLT_MAX improves no distance (all
+         * are at most FLT_MAX, the margin of dist included): no test for the edge. */
         const float *wu = ge->w + 8 * u;
-        /* no edge leaves the grid: off[d] stays inside */
         for (int d = 0; d < 8; d++)
-            if (wu[d] != FLT_MAX)
-                relax(ge, u, u + off[d], du + wu[d], first);
+            relax(ge, u, u + off[d], du + wu[d], first);
         for (int side = 0; side < 2; side++)
-            if (ge->bt[2 * u + side] >= 0)
-                relax(ge, u, ge->bt[2 * u + side], du + ge->bw[2 * u + side], first);
+            relax(ge, u, ge->bt[2 * u + side], du + ge->bw[2 * u + side], first);
     }
 }
 
