@@ -182,8 +182,25 @@ static int queue_pop(drv__geodesic *ge)
     return c;
 }
 
-/* The 8 neighbours, in an order where k and 7 - k are opposite. */
-static const int NBR[8][2] = {{-1, -1}, {0, -1}, {1, -1}, {-1, 0}, {1, 0}, {-1, 1}, {0, 1}, {1, 1}};
+/* The 8 neighbours (dx, dy), in an order where d and 7 - d are opposite ("NBR order"):
+ * (-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1); off[] in run. */
+
+/* The edge between person cells u and v = u's neighbour d (d = 4..7, the forward half; 7 - d
+ * is the way back from v), when the rules allow it. */
+static inline void edge(drv__geodesic *ge, const drv__grid *g, const float jumps[4], int u, int v,
+                        int d)
+{
+    if (!g->person[v])
+        return;
+    const float zu = g->z[u], jz = fabsf(g->z[v] - zu);
+    if (jz >= jumps[0] && (g->comp[v] == g->comp[u] || jz >= jumps[1]))
+        return;
+    const float *pu = g->P + 3 * u, *pv = g->P + 3 * v;
+    float ex = pv[0] - pu[0], ey = pv[1] - pu[1], ez = pv[2] - pu[2];
+    float wt = sqrtf(ex * ex + ey * ey + ez * ez) + (jz >= jumps[2] ? jumps[3] : 0.f);
+    ge->w[8 * u + d] = wt;
+    ge->w[8 * v + 7 - d] = wt;
+}
 
 /* This frame's graph: the weight of every edge between the person's cells (the rules of the
  * header), computed once for the ten Dijkstra runs; each edge is measured from one end and
@@ -197,7 +214,9 @@ static void edges(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o
         for (int d = 0; d < 8; d++)
             ge->w[8 * c + d] = FLT_MAX;
     }
-    const float seg_jump = o->seg_jump, attach_jump = o->attach_jump, max_jump = o->max_jump;
+    /* seg_jump, attach_jump, max_jump, jump_penalty (locals: the stores to w cannot alias them) */
+    const float jumps[4] = {o->seg_jump, o->attach_jump, o->max_jump, o->jump_penalty};
+    const float max_jump = o->max_jump;
     for (int k = 0, y = 0, row = 0; k < g->ncells; k++) {
         const int u = g->cells[k];
         if (u < row || u >= row + gw) { /* cells mostly ascend: the row follows them */
@@ -205,38 +224,28 @@ static void edges(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o
             row = y * gw;
         }
         const int x = u - row;
-        const float *pu = g->P + 3 * u;
-        const float zu = g->z[u];
-        /* the forward half, d = 4..7: (+1, 0), (-1, +1), (0, +1), (+1, +1); 7 - d is the way
-         * back. inside[] says which of them lie in the grid. */
+        /* the forward half, d = 4..7: (+1, 0), (-1, +1), (0, +1), (+1, +1), where in the grid */
         const int r = x < gw - 1, dn = y < gh - 1;
-        const int inside[4] = {r, x > 0 && dn, dn, r && dn};
-        for (int d = 4; d < 8; d++) {
-            if (!inside[d - 4])
-                continue;
-            const int v = u + NBR[d][1] * gw + NBR[d][0];
-            if (!g->person[v])
-                continue;
-            float jz = fabsf(g->z[v] - zu);
-            if (jz >= seg_jump && (g->comp[v] == g->comp[u] || jz >= attach_jump))
-                continue;
-            const float *pv = g->P + 3 * v;
-            float ex = pv[0] - pu[0], ey = pv[1] - pu[1], ez = pv[2] - pu[2];
-            float wt = sqrtf(ex * ex + ey * ey + ez * ez) + (jz >= max_jump ? o->jump_penalty : 0.f);
-            ge->w[8 * u + d] = wt;
-            ge->w[8 * v + 7 - d] = wt;
+        if (r)
+            edge(ge, g, jumps, u, u + 1, 4);
+        if (dn) {
+            if (x > 0)
+                edge(ge, g, jumps, u, u + gw - 1, 5);
+            edge(ge, g, jumps, u, u + gw, 6);
+            if (r)
+                edge(ge, g, jumps, u, u + gw + 1, 7);
         }
     }
     for (int k = 0; k < g->ncells; k++) {
-        int u = g->cells[k], x = u % gw, y = u / gw;
-        const float *pu = g->P + 3 * u;
+        const int u = g->cells[k];
         const float zu = g->z[u];
         for (int side = 0; side < 2; side++) {
             const int dy = side ? 1 : -1, d = side ? 6 : 1;
             ge->bw[2 * u + side] = FLT_MAX; /* none: an edge to itself that never relaxes */
             ge->bt[2 * u + side] = u;
-            if (bridge < 2 || ge->w[8 * u + d] == FLT_MAX || !(g->z[u + dy * gw] < zu - o->max_jump))
+            if (bridge < 2 || ge->w[8 * u + d] == FLT_MAX || !(g->z[u + dy * gw] < zu - max_jump))
                 continue;
+            const int x = u % gw, y = u / gw;
             for (int t = 2; t <= bridge; t++) { /* across the occluder to the first cell at zu */
                 int by = y + t * dy;
                 if (by < 0 || by >= gh)
@@ -244,10 +253,10 @@ static void edges(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o
                 int wc = by * gw + x;
                 if (!g->person[wc])
                     break;
-                if (g->z[wc] < zu - o->max_jump)
+                if (g->z[wc] < zu - max_jump)
                     continue;
-                if (fabsf(g->z[wc] - zu) < o->max_jump) {
-                    const float *pw = g->P + 3 * wc;
+                if (fabsf(g->z[wc] - zu) < max_jump) {
+                    const float *pu = g->P + 3 * u, *pw = g->P + 3 * wc;
                     float fx = pw[0] - pu[0], fy = pw[1] - pu[1], fz = pw[2] - pu[2];
                     ge->bw[2 * u + side] = sqrtf(fx * fx + fy * fy + fz * fz);
                     ge->bt[2 * u + side] = wc;
