@@ -384,6 +384,10 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     for (int k = 0; k < nmain && o->attach_jump > 0; k++) {
         int j = g->cells[k], x = j % gw, y = j / gw;
         if (x > 0 && y > 0 && x < gw - 1 && y < gh - 1) { /* inside: no bounds to test */
+            const int32_t *cj = g->comp + j;
+            if (((cj[-gw - 1] ^ best) | (cj[-gw] ^ best) | (cj[-gw + 1] ^ best) | (cj[-1] ^ best) |
+                 (cj[1] ^ best) | (cj[gw - 1] ^ best) | (cj[gw] ^ best) | (cj[gw + 1] ^ best)) == 0)
+                continue; /* all around is the person */
             for (int d = 0; d < 9; d++) {
                 int i = j + off9[d], c = g->comp[i];
                 if (c == best || c < 0 || g->c_count[c] < 0 || g->c_area[c] > amax_attach ||
