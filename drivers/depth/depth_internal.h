@@ -24,7 +24,8 @@ typedef struct drv__grid {
     float *c_area;   /* n: per component: area (m^2), */
     float *c_sumz;   /*    sum of depths, */
     int *c_count;    /*    cells, */
-    int *c_last;     /*    its last cell (the largest index) */
+    int *c_first;    /*    its first and last cell (the smallest and largest index) */
+    int *c_last;
     int32_t *hole;   /* n: background cells enclosed by the person: hole id, -1 = not a hole */
     int *hole_cells; /* n: scratch, the cells of the hole being measured */
     float centroid[3]; /* mean of the person's cells */

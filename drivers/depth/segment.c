@@ -71,11 +71,12 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     g->c_area = malloc(n * sizeof *g->c_area);
     g->c_sumz = malloc(n * sizeof *g->c_sumz);
     g->c_count = malloc(n * sizeof *g->c_count);
+    g->c_first = malloc(n * sizeof *g->c_first);
     g->c_last = malloc(n * sizeof *g->c_last);
     g->hole = malloc(n * sizeof *g->hole);
     g->hole_cells = malloc(n * sizeof *g->hole_cells);
     if (!g->P || !g->z || !g->px || !g->comp || !g->person || !g->stack || !g->cells ||
-        !g->c_area || !g->c_sumz || !g->c_count || !g->c_last || !g->hole || !g->hole_cells) {
+        !g->c_area || !g->c_sumz || !g->c_count || !g->c_first || !g->c_last || !g->hole || !g->hole_cells) {
         drv__grid_fini(g);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for a %dx%d grid", o->k.width,
@@ -118,6 +119,7 @@ void drv__grid_fini(drv__grid *g)
     free(g->c_area);
     free(g->c_sumz);
     free(g->c_count);
+    free(g->c_first);
     free(g->c_last);
     free(g->hole);
     free(g->hole_cells);
@@ -340,6 +342,7 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
         g->c_area[c] = (float)area;
         g->c_sumz[c] = (float)sumz;
         g->c_count[c] = count;
+        g->c_first[c] = i;
         g->c_last[c] = last;
     }
     g->ncells = 0;
@@ -362,10 +365,7 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     if (best < 0)
         return 0;
     double cs[3] = {0, 0, 0};
-    int first = 0;
-    while (g->comp[first] != best)
-        first++;
-    for (int i = first; i <= g->c_last[best]; i++) {
+    for (int i = g->c_first[best]; i <= g->c_last[best]; i++) {
         if (g->comp[i] != best)
             continue;
         g->person[i] = 1;
@@ -379,10 +379,15 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     /* occluded limbs: c_count[c] < 0 marks a component to attach */
     const int nmain = g->ncells;
     const float amax_attach = o->attach_frac * g->c_area[best];
-    int nattach = 0;
+    int nattach = 0, alo = g->n, ahi = -1; /* the attached components lie in [alo, ahi] */
     const int off9[9] = {-gw - 1, -gw, -gw + 1, -1, 0, 1, gw - 1, gw, gw + 1};
-    for (int k = 0; k < nmain && o->attach_jump > 0; k++) {
-        int j = g->cells[k], x = j % gw, y = j / gw;
+    for (int k = 0, y = 0, row = 0; k < nmain && o->attach_jump > 0; k++) {
+        const int j = g->cells[k];
+        if (j >= row + gw) { /* the main component's cells ascend: the row follows them */
+            y = j / gw;
+            row = y * gw;
+        }
+        const int x = j - row;
         if (x > 0 && y > 0 && x < gw - 1 && y < gh - 1) { /* inside: no bounds to test */
             const int32_t *cj = g->comp + j;
             if (((cj[-gw - 1] ^ best) | (cj[-gw] ^ best) | (cj[-gw + 1] ^ best) | (cj[-1] ^ best) |
@@ -395,6 +400,8 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
                     continue;
                 g->c_count[c] = -g->c_count[c];
                 nattach++;
+                alo = g->c_first[c] < alo ? g->c_first[c] : alo;
+                ahi = g->c_last[c] > ahi ? g->c_last[c] : ahi;
             }
             continue;
         }
@@ -412,10 +419,12 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
                     continue;
                 g->c_count[c] = -g->c_count[c];
                 nattach++;
+                alo = g->c_first[c] < alo ? g->c_first[c] : alo;
+                ahi = g->c_last[c] > ahi ? g->c_last[c] : ahi;
             }
         }
     }
-    for (int i = 0; i < g->n && nattach; i++) {
+    for (int i = alo; i <= ahi; i++) {
         int c = g->comp[i];
         if (c >= 0 && c != best && g->c_count[c] < 0) {
             g->person[i] = 1;
