@@ -148,8 +148,6 @@ static void queue_push(drv__geodesic *ge, int c)
     if (ge->slot[c] >= 0)
         queue_remove(ge, c);
     long k = (long)(ge->dist[c] * ge->iq);
-    if (ge->hn == 0) /* a new source: the queue starts over */
-        ge->cur = k;
     if (k - ge->cur >= ge->nb) /* cannot happen with the ring sized by init; keeps it safe */
         k = ge->cur + ge->nb - 1;
     int sl = (int)(k & (ge->nb - 1));
@@ -359,6 +357,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
     ge->iq = 1.f / drv__geodesic_quantum(o, g->step, fmaxf(z_near, o->z_min));
     ge->dist[source] = 0;
     ge->hmax[source] = 0;
+    ge->cur = 0; /* a source (distance 0) starts the queue over */
     queue_push(ge, source);
     edges(ge, g, o);
     run(ge, g, 0, NULL, NULL, 1);
@@ -395,6 +394,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         int ntip = 0;
         ge->dist[e] = 0;
         ge->parent[e] = -1;
+        ge->cur = 0;
         queue_push(ge, e);
         run(ge, g, o->tip_radius, tip, &ntip, 0);
         for (int i = 0; i < 3; i++)
