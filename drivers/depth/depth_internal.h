@@ -15,7 +15,7 @@ typedef struct drv__grid {
     int nmax;            /* cells allocated: the grid at the smallest step */
     float *P;        /* n x 3: the cell's sample point, Y-up camera frame, metres */
     float *z;        /* n: depth along the axis (metres); 0 = no reading or gated out */
-    uint16_t *px;    /* n x 2: pixel (u, v) the sample came from */
+    uint8_t *probe;  /* n: which of the cell's four probes the sample came from (drv__grid_pixel) */
     int32_t *comp;   /* n: connected component id, -1 = background */
     uint8_t *person; /* n: 1 = the tracked person */
     int *stack;      /* n: flood-fill scratch */
@@ -36,6 +36,8 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err);
 void drv__grid_fini(drv__grid *g);
 /* The step used when cell_m > 0 for a person at depth z (metres) while `step` is in use. */
 int drv__grid_choose_step(const drv_depth_opts *o, int step, float z);
+/* The pixel (u, v) the sample of a cell came from. */
+void drv__grid_pixel(const drv__grid *g, int cell, int *u, int *v);
 /* Makes g a grid of step x step cells (within the allocated size). */
 void drv__grid_set_step(drv__grid *g, const drv_depth_opts *o, int step);
 

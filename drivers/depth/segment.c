@@ -63,7 +63,7 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     size_t n = (size_t)g->nmax;
     g->P = malloc(n * 3 * sizeof *g->P);
     g->z = malloc(n * sizeof *g->z);
-    g->px = malloc(n * 2 * sizeof *g->px);
+    g->probe = malloc(n);
     g->comp = malloc(n * sizeof *g->comp);
     g->person = malloc(n);
     g->stack = malloc(n * sizeof *g->stack);
@@ -75,7 +75,7 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     g->c_last = malloc(n * sizeof *g->c_last);
     g->hole = malloc(n * sizeof *g->hole);
     g->hole_cells = malloc(n * sizeof *g->hole_cells);
-    if (!g->P || !g->z || !g->px || !g->comp || !g->person || !g->stack || !g->cells ||
+    if (!g->P || !g->z || !g->probe || !g->comp || !g->person || !g->stack || !g->cells ||
         !g->c_area || !g->c_sumz || !g->c_count || !g->c_first || !g->c_last || !g->hole || !g->hole_cells) {
         drv__grid_fini(g);
         if (err)
@@ -86,6 +86,13 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     memset(g->person, 0, n);
     drv__grid_set_step(g, o, o->step);
     return 0;
+}
+
+void drv__grid_pixel(const drv__grid *g, int cell, int *u, int *v)
+{
+    const int s = g->step, a = s / 4, db = (3 * s) / 4 - a, k = g->probe[cell];
+    *u = cell % g->gw * s + a + (k & 1) * db;
+    *v = cell / g->gw * s + a + (k >> 1) * db;
 }
 
 int drv__grid_choose_step(const drv_depth_opts *o, int step, float z)
@@ -111,7 +118,7 @@ void drv__grid_fini(drv__grid *g)
 {
     free(g->P);
     free(g->z);
-    free(g->px);
+    free(g->probe);
     free(g->comp);
     free(g->person);
     free(g->stack);
@@ -144,7 +151,7 @@ void drv__segment_sample(drv__grid *g, const drv_depth_opts *o, const uint16_t *
     for (int gy = 0; gy < g->gh; gy++) {
         const int va = gy * s + a;
         const uint16_t *ra = depth_mm + (size_t)va * W + a, *rb = ra + (size_t)db * W;
-        uint16_t *px = g->px + 2 * gy * gw;
+        uint8_t *probe = g->probe + gy * gw;
         float *zr = g->z + gy * gw, *P = g->P + 3 * gy * gw;
         const float fy[2] = {-((float)va - cy), -((float)(va + db) - cy)};
         for (int gx = 0, u0 = 0; gx < gw; gx++, u0 += s) {
@@ -155,8 +162,7 @@ void drv__segment_sample(drv__grid *g, const drv_depth_opts *o, const uint16_t *
             uint32_t m01 = k0 < k1 ? k0 : k1, m23 = k2 < k3 ? k2 : k3;
             uint32_t m = m01 < m23 ? m01 : m23;
             const int ok = m < lim, k = ok ? (int)(m & 3u) : 0, bu = u0 + a + (k & 1) * db;
-            px[2 * gx] = (uint16_t)bu;
-            px[2 * gx + 1] = (uint16_t)(va + (k >> 1) * db);
+            probe[gx] = (uint8_t)k;
             if (!ok) {
                 zr[gx] = 0;
                 continue;
