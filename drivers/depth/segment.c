@@ -5,7 +5,8 @@
  *    the Y-up camera frame, and gated to [z_min, z_max].
  * 2. Floor: RANSAC (Fischler & Bolles 1981) over the cells of the lower two thirds of the image;
  *    a hypothesis is a plane through three cells whose normal is within floor_max_tilt of +Y; its
- *    score is the number of inliers (|n.p + d| < floor_tol) on a fixed random subset, and planes
+ *    score is the number of inliers (|n.p + d| < floor_tol) on a fixed random subset (scoring
+ *    stops once the plane is rejected or can no longer win), and planes
  *    with more than 5% of the subset below them are rejected (a floor has nothing below it, a
  *    slice through the body has half of it). The best plane, refined by least squares, is accepted when a quarter of the subset lies on it; cells on or below it are dropped.
  * 3. Person: connected components of the remaining cells (8-neighbour, neighbours connected when
