@@ -15,7 +15,7 @@ typedef struct drv__grid {
     int nmax;            /* cells allocated: the grid at the smallest step */
     float *P;        /* n x 3: the cell's sample point, Y-up camera frame, metres */
     float *z;        /* n: depth along the axis (metres); 0 = no reading or gated out */
-    uint16_t *px;    /* n x 2: pixel (u, v) the sample came from */
+    uint8_t *probe;  /* n: which of the cell's four probes the sample came from (drv__grid_pixel) */
     int32_t *comp;   /* n: connected component id, -1 = background */
     uint8_t *person; /* n: 1 = the tracked person */
     int *stack;      /* n: flood-fill scratch */
@@ -23,7 +23,9 @@ typedef struct drv__grid {
     int ncells;
     float *c_area;   /* n: per component: area (m^2), */
     float *c_sumz;   /*    sum of depths, */
-    int *c_count;    /*    cells */
+    int *c_count;    /*    cells, */
+    int *c_first;    /*    its first and last cell (the smallest and largest index) */
+    int *c_last;
     int32_t *hole;   /* n: background cells enclosed by the person: hole id, -1 = not a hole */
     int *hole_cells; /* n: scratch, the cells of the hole being measured */
     float centroid[3]; /* mean of the person's cells */
@@ -34,6 +36,8 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err);
 void drv__grid_fini(drv__grid *g);
 /* The step used when cell_m > 0 for a person at depth z (metres) while `step` is in use. */
 int drv__grid_choose_step(const drv_depth_opts *o, int step, float z);
+/* The pixel (u, v) the sample of a cell came from. */
+void drv__grid_pixel(const drv__grid *g, int cell, int *u, int *v);
 /* Makes g a grid of step x step cells (within the allocated size). */
 void drv__grid_set_step(drv__grid *g, const drv_depth_opts *o, int step);
 
@@ -78,20 +82,23 @@ struct drv__extremum {
 
 typedef struct drv__geodesic {
     int n;
-    float *dist;   /* n */
+    float *dist;   /* n, in dist_mem after a margin of pad cells (FLT_MAX) */
+    float *dist_mem;
+    int pad;
     int *parent;   /* n */
     /* the queue: Dial's buckets of width q (geodesic.c), a ring of nb lists linked through
        next/prev; bucket[i] is the first cell of ring slot i or -1 */
     int *next, *prev; /* n */
     int *slot;        /* n: a queued cell's ring slot, -1 = not queued */
     int *bucket;      /* nb */
+    uint64_t *full;   /* nb / 64 (at least 1): bit i set = bucket[i] is not empty */
     int nb;           /* a power of two */
     long cur;         /* the bucket (absolute: floor(dist / q)) being emptied */
     float iq;         /* 1 / q */
     float *w;         /* n x 8: this frame's edge weights to the 8 neighbours (NBR order of
                          geodesic.c), FLT_MAX = no edge */
     float *bw;        /* n x 2: weights of the bridges up and down the column (FLT_MAX = none), */
-    int *bt;          /*        and the cells they reach */
+    int *bt;          /*        and the cells they reach (the cell itself when none) */
     float *h;      /* n: height of a person cell above the source along `up` */
     float *hmax;   /* n: highest h along the cell's shortest path from the source (first pass) */
     int hn;        /* cells queued */

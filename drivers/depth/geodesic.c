@@ -59,26 +59,32 @@ int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *
     ge->nb = 1;
     while (ge->nb < span && ge->nb < (1 << 24))
         ge->nb <<= 1;
-    ge->dist = malloc((size_t)n * sizeof *ge->dist);
+    /* dist has a margin of a grid row and a cell on both sides: a cell on the grid's rim reads
+     * its neighbours' distances through the edges it does not have (FLT_MAX, see run) */
+    ge->pad = o->k.width / smin + 1;
+    ge->dist_mem = malloc(((size_t)n + 2 * (size_t)ge->pad) * sizeof *ge->dist_mem);
+    ge->dist = ge->dist_mem ? ge->dist_mem + ge->pad : NULL;
     ge->parent = malloc((size_t)n * sizeof *ge->parent);
     ge->next = malloc((size_t)n * sizeof *ge->next);
     ge->prev = malloc((size_t)n * sizeof *ge->prev);
     ge->slot = malloc((size_t)n * sizeof *ge->slot);
     ge->bucket = malloc((size_t)ge->nb * sizeof *ge->bucket);
+    ge->full = calloc((size_t)(ge->nb + 63) / 64, sizeof *ge->full);
     ge->w = malloc((size_t)n * 8 * sizeof *ge->w);
     ge->bw = malloc((size_t)n * 2 * sizeof *ge->bw);
     ge->bt = malloc((size_t)n * 2 * sizeof *ge->bt);
     ge->h = malloc((size_t)n * sizeof *ge->h);
     ge->hmax = malloc((size_t)n * sizeof *ge->hmax);
-    if (!ge->dist || !ge->parent || !ge->next || !ge->prev || !ge->slot || !ge->bucket || !ge->w ||
-        !ge->bw || !ge->bt || !ge->h || !ge->hmax) {
+    if (!ge->dist || !ge->parent || !ge->next || !ge->prev || !ge->slot || !ge->bucket ||
+        !ge->full || !ge->w || !ge->bw || !ge->bt || !ge->h || !ge->hmax) {
         drv__geodesic_fini(ge);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for the geodesic graph (%d cells)", n);
         return -ENOMEM;
     }
+    for (int i = 0; i < n + 2 * ge->pad; i++)
+        ge->dist_mem[i] = FLT_MAX;
     for (int i = 0; i < n; i++) {
-        ge->dist[i] = FLT_MAX;
         ge->slot[i] = -1;
         ge->parent[i] = -1;
     }
@@ -89,12 +95,13 @@ int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *
 
 void drv__geodesic_fini(drv__geodesic *ge)
 {
-    free(ge->dist);
+    free(ge->dist_mem);
     free(ge->parent);
     free(ge->next);
     free(ge->prev);
     free(ge->slot);
     free(ge->bucket);
+    free(ge->full);
     free(ge->w);
     free(ge->bw);
     free(ge->bt);
@@ -107,7 +114,8 @@ void drv__geodesic_fini(drv__geodesic *ge)
  * ordering"]: cells are kept in buckets of width q by floor(dist / q), and popped bucket after
  * bucket. When q is below the shortest edge, no cell can improve another of its own bucket, so
  * the order inside a bucket does not matter and the distances are exactly Dijkstra's - at O(1)
- * per queue operation instead of a heap's O(log n). */
+ * per queue operation instead of a heap's O(log n). A bitmap of the non-empty buckets lets a pop
+ * skip 64 empty buckets at a time. */
 
 float drv__geodesic_quantum(const drv_depth_opts *o, int step, float z_near)
 {
@@ -120,10 +128,14 @@ float drv__geodesic_quantum(const drv_depth_opts *o, int step, float z_near)
 static void queue_remove(drv__geodesic *ge, int c)
 {
     int p = ge->prev[c], nx = ge->next[c];
-    if (p >= 0)
+    if (p >= 0) {
         ge->next[p] = nx;
-    else
-        ge->bucket[ge->slot[c]] = nx;
+    } else {
+        int sl = ge->slot[c];
+        ge->bucket[sl] = nx;
+        if (nx < 0)
+            ge->full[sl >> 6] &= ~(1ull << (sl & 63));
+    }
     if (nx >= 0)
         ge->prev[nx] = p;
     ge->slot[c] = -1;
@@ -136,8 +148,6 @@ static void queue_push(drv__geodesic *ge, int c)
     if (ge->slot[c] >= 0)
         queue_remove(ge, c);
     long k = (long)(ge->dist[c] * ge->iq);
-    if (ge->hn == 0) /* a new source: the queue starts over */
-        ge->cur = k;
     if (k - ge->cur >= ge->nb) /* cannot happen with the ring sized by init; keeps it safe */
         k = ge->cur + ge->nb - 1;
     int sl = (int)(k & (ge->nb - 1));
@@ -146,22 +156,49 @@ static void queue_push(drv__geodesic *ge, int c)
     ge->next[c] = ge->bucket[sl];
     if (ge->bucket[sl] >= 0)
         ge->prev[ge->bucket[sl]] = c;
+    else
+        ge->full[sl >> 6] |= 1ull << (sl & 63);
     ge->bucket[sl] = c;
     ge->hn++;
 }
 
+/* Pops a cell of the first non-empty bucket from `cur` on (the queue holds a cell): the bitmap
+ * `full` is searched a word at a time, around the ring. */
 static int queue_pop(drv__geodesic *ge)
 {
-    int sl;
-    while (ge->bucket[sl = (int)(ge->cur & (ge->nb - 1))] < 0)
-        ge->cur++;
+    const int mask = ge->nb - 1, s = (int)(ge->cur & mask), nw = (ge->nb + 63) >> 6;
+    int w = s >> 6, sl;
+    uint64_t b = ge->full[w] & (~0ull << (s & 63));
+    while (!b) {
+        w = w + 1 < nw ? w + 1 : 0;
+        b = ge->full[w];
+    }
+    sl = (w << 6) + __builtin_ctzll(b);
+    ge->cur += (sl - s) & mask;
     int c = ge->bucket[sl];
     queue_remove(ge, c);
     return c;
 }
 
-/* The 8 neighbours, in an order where k and 7 - k are opposite. */
-static const int NBR[8][2] = {{-1, -1}, {0, -1}, {1, -1}, {-1, 0}, {1, 0}, {-1, 1}, {0, 1}, {1, 1}};
+/* The 8 neighbours (dx, dy), in an order where d and 7 - d are opposite ("NBR order"):
+ * (-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1); off[] in run. */
+
+/* The edge between person cells u and v = u's neighbour d (d = 4..7, the forward half; 7 - d
+ * is the way back from v), when the rules allow it. */
+static inline void edge(drv__geodesic *ge, const drv__grid *g, const float jumps[4], int u, int v,
+                        int d)
+{
+    if (!g->person[v])
+        return;
+    const float zu = g->z[u], jz = fabsf(g->z[v] - zu);
+    if (jz >= jumps[0] && (g->comp[v] == g->comp[u] || jz >= jumps[1]))
+        return;
+    const float *pu = g->P + 3 * u, *pv = g->P + 3 * v;
+    float ex = pv[0] - pu[0], ey = pv[1] - pu[1], ez = pv[2] - pu[2];
+    float wt = sqrtf(ex * ex + ey * ey + ez * ez) + (jz >= jumps[2] ? jumps[3] : 0.f);
+    ge->w[8 * u + d] = wt;
+    ge->w[8 * v + 7 - d] = wt;
+}
 
 /* This frame's graph: the weight of every edge between the person's cells (the rules of the
  * header), computed once for the ten Dijkstra runs; each edge is measured from one end and
@@ -175,37 +212,38 @@ static void edges(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o
         for (int d = 0; d < 8; d++)
             ge->w[8 * c + d] = FLT_MAX;
     }
-    for (int k = 0; k < g->ncells; k++) {
-        int u = g->cells[k], x = u % gw, y = u / gw;
-        const float *pu = g->P + 3 * u;
-        const float zu = g->z[u];
-        for (int d = 4; d < 8; d++) { /* the forward half; 7 - d is the way back */
-            int xx = x + NBR[d][0], yy = y + NBR[d][1];
-            if (xx < 0 || yy < 0 || xx >= gw || yy >= gh)
-                continue;
-            int v = yy * gw + xx;
-            if (!g->person[v])
-                continue;
-            float jz = fabsf(g->z[v] - zu);
-            if (jz >= o->seg_jump && (g->comp[v] == g->comp[u] || jz >= o->attach_jump))
-                continue;
-            const float *pv = g->P + 3 * v;
-            float ex = pv[0] - pu[0], ey = pv[1] - pu[1], ez = pv[2] - pu[2];
-            float wt = sqrtf(ex * ex + ey * ey + ez * ez) + (jz >= o->max_jump ? o->jump_penalty : 0.f);
-            ge->w[8 * u + d] = wt;
-            ge->w[8 * v + 7 - d] = wt;
+    /* seg_jump, attach_jump, max_jump, jump_penalty (locals: the stores to w cannot alias them) */
+    const float jumps[4] = {o->seg_jump, o->attach_jump, o->max_jump, o->jump_penalty};
+    const float max_jump = o->max_jump;
+    for (int k = 0, y = 0, row = 0; k < g->ncells; k++) {
+        const int u = g->cells[k];
+        if (u < row || u >= row + gw) { /* cells mostly ascend: the row follows them */
+            y = u / gw;
+            row = y * gw;
+        }
+        const int x = u - row;
+        /* the forward half, d = 4..7: (+1, 0), (-1, +1), (0, +1), (+1, +1), where in the grid */
+        const int r = x < gw - 1, dn = y < gh - 1;
+        if (r)
+            edge(ge, g, jumps, u, u + 1, 4);
+        if (dn) {
+            if (x > 0)
+                edge(ge, g, jumps, u, u + gw - 1, 5);
+            edge(ge, g, jumps, u, u + gw, 6);
+            if (r)
+                edge(ge, g, jumps, u, u + gw + 1, 7);
         }
     }
     for (int k = 0; k < g->ncells; k++) {
-        int u = g->cells[k], x = u % gw, y = u / gw;
-        const float *pu = g->P + 3 * u;
+        const int u = g->cells[k];
         const float zu = g->z[u];
         for (int side = 0; side < 2; side++) {
             const int dy = side ? 1 : -1, d = side ? 6 : 1;
-            ge->bw[2 * u + side] = FLT_MAX;
-            ge->bt[2 * u + side] = -1;
-            if (bridge < 2 || ge->w[8 * u + d] == FLT_MAX || !(g->z[u + dy * gw] < zu - o->max_jump))
+            ge->bw[2 * u + side] = FLT_MAX; /* none: an edge to itself that never relaxes */
+            ge->bt[2 * u + side] = u;
+            if (bridge < 2 || ge->w[8 * u + d] == FLT_MAX || !(g->z[u + dy * gw] < zu - max_jump))
                 continue;
+            const int x = u % gw, y = u / gw;
             for (int t = 2; t <= bridge; t++) { /* across the occluder to the first cell at zu */
                 int by = y + t * dy;
                 if (by < 0 || by >= gh)
@@ -213,10 +251,10 @@ static void edges(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o
                 int wc = by * gw + x;
                 if (!g->person[wc])
                     break;
-                if (g->z[wc] < zu - o->max_jump)
+                if (g->z[wc] < zu - max_jump)
                     continue;
-                if (fabsf(g->z[wc] - zu) < o->max_jump) {
-                    const float *pw = g->P + 3 * wc;
+                if (fabsf(g->z[wc] - zu) < max_jump) {
+                    const float *pu = g->P + 3 * u, *pw = g->P + 3 * wc;
                     float fx = pw[0] - pu[0], fy = pw[1] - pu[1], fz = pw[2] - pu[2];
                     ge->bw[2 * u + side] = sqrtf(fx * fx + fy * fy + fz * fz);
                     ge->bt[2 * u + side] = wc;
@@ -258,13 +296,13 @@ static void run(drv__geodesic *ge, const drv__grid *g, float radius, double *tip
             tip[2] += pu[2];
             (*ntip)++;
         }
+        /* A missing edge weighs FLT_MAX, so du + FLT_MAX = FLT_MAX improves no distance (all
+         * are at most FLT_MAX, the margin of dist included): no test for the edge. */
         const float *wu = ge->w + 8 * u;
         for (int d = 0; d < 8; d++)
-            if (wu[d] != FLT_MAX) /* no edge leaves the grid: off[d] stays inside */
-                relax(ge, u, u + off[d], du + wu[d], first);
+            relax(ge, u, u + off[d], du + wu[d], first);
         for (int side = 0; side < 2; side++)
-            if (ge->bt[2 * u + side] >= 0)
-                relax(ge, u, ge->bt[2 * u + side], du + ge->bw[2 * u + side], first);
+            relax(ge, u, ge->bt[2 * u + side], du + ge->bw[2 * u + side], first);
     }
 }
 
@@ -310,7 +348,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
     for (int k = 0; k < g->ncells; k++) {
         int c = g->cells[k];
         const float *p = g->P + 3 * c;
-        z_near = fminf(z_near, g->z[c]);
+        z_near = g->z[c] < z_near ? g->z[c] : z_near;
         ge->dist[c] = FLT_MAX;
         ge->parent[c] = -1;
         ge->slot[c] = -1;
@@ -319,6 +357,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
     ge->iq = 1.f / drv__geodesic_quantum(o, g->step, fmaxf(z_near, o->z_min));
     ge->dist[source] = 0;
     ge->hmax[source] = 0;
+    ge->cur = 0; /* a source (distance 0) starts the queue over */
     queue_push(ge, source);
     edges(ge, g, o);
     run(ge, g, 0, NULL, NULL, 1);
@@ -355,6 +394,7 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         int ntip = 0;
         ge->dist[e] = 0;
         ge->parent[e] = -1;
+        ge->cur = 0;
         queue_push(ge, e);
         run(ge, g, o->tip_radius, tip, &ntip, 0);
         for (int i = 0; i < 3; i++)

@@ -208,8 +208,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     for (int i = 0; i < r->nextrema; i++) {
         memcpy(r->extrema[i], t->ex[i].tip, sizeof r->extrema[i]);
         r->geodesic[i] = t->ex[i].geodesic;
-        r->extremum_px[i][0] = g->px[2 * t->ex[i].cell];
-        r->extremum_px[i][1] = g->px[2 * t->ex[i].cell + 1];
+        drv__grid_pixel(g, t->ex[i].cell, &r->extremum_px[i][0], &r->extremum_px[i][1]);
     }
     drv__label_prev prev;
     for (int l = 0; l < 5; l++) {

@@ -5,7 +5,8 @@
  *    the Y-up camera frame, and gated to [z_min, z_max].
  * 2. Floor: RANSAC (Fischler & Bolles 1981) over the cells of the lower two thirds of the image;
  *    a hypothesis is a plane through three cells whose normal is within floor_max_tilt of +Y; its
- *    score is the number of inliers (|n.p + d| < floor_tol) on a fixed random subset, and planes
+ *    score is the number of inliers (|n.p + d| < floor_tol) on a fixed random subset (scoring
+ *    stops once the plane is rejected or can no longer win), and planes
  *    with more than 5% of the subset below them are rejected (a floor has nothing below it, a
  *    slice through the body has half of it). The best plane, refined by least squares, is accepted when a quarter of the subset lies on it; cells on or below it are dropped.
  * 3. Person: connected components of the remaining cells (8-neighbour, neighbours connected when
@@ -63,7 +64,7 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     size_t n = (size_t)g->nmax;
     g->P = malloc(n * 3 * sizeof *g->P);
     g->z = malloc(n * sizeof *g->z);
-    g->px = malloc(n * 2 * sizeof *g->px);
+    g->probe = malloc(n);
     g->comp = malloc(n * sizeof *g->comp);
     g->person = malloc(n);
     g->stack = malloc(n * sizeof *g->stack);
@@ -71,10 +72,12 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     g->c_area = malloc(n * sizeof *g->c_area);
     g->c_sumz = malloc(n * sizeof *g->c_sumz);
     g->c_count = malloc(n * sizeof *g->c_count);
+    g->c_first = malloc(n * sizeof *g->c_first);
+    g->c_last = malloc(n * sizeof *g->c_last);
     g->hole = malloc(n * sizeof *g->hole);
     g->hole_cells = malloc(n * sizeof *g->hole_cells);
-    if (!g->P || !g->z || !g->px || !g->comp || !g->person || !g->stack || !g->cells ||
-        !g->c_area || !g->c_sumz || !g->c_count || !g->hole || !g->hole_cells) {
+    if (!g->P || !g->z || !g->probe || !g->comp || !g->person || !g->stack || !g->cells ||
+        !g->c_area || !g->c_sumz || !g->c_count || !g->c_first || !g->c_last || !g->hole || !g->hole_cells) {
         drv__grid_fini(g);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for a %dx%d grid", o->k.width,
@@ -84,6 +87,13 @@ int drv__grid_init(drv__grid *g, const drv_depth_opts *o, char *err)
     memset(g->person, 0, n);
     drv__grid_set_step(g, o, o->step);
     return 0;
+}
+
+void drv__grid_pixel(const drv__grid *g, int cell, int *u, int *v)
+{
+    const int s = g->step, a = s / 4, db = (3 * s) / 4 - a, k = g->probe[cell];
+    *u = cell % g->gw * s + a + (k & 1) * db;
+    *v = cell / g->gw * s + a + (k >> 1) * db;
 }
 
 int drv__grid_choose_step(const drv_depth_opts *o, int step, float z)
@@ -109,7 +119,7 @@ void drv__grid_fini(drv__grid *g)
 {
     free(g->P);
     free(g->z);
-    free(g->px);
+    free(g->probe);
     free(g->comp);
     free(g->person);
     free(g->stack);
@@ -117,6 +127,8 @@ void drv__grid_fini(drv__grid *g)
     free(g->c_area);
     free(g->c_sumz);
     free(g->c_count);
+    free(g->c_first);
+    free(g->c_last);
     free(g->hole);
     free(g->hole_cells);
     memset(g, 0, sizeof *g);
@@ -124,40 +136,43 @@ void drv__grid_fini(drv__grid *g)
 
 void drv__segment_sample(drv__grid *g, const drv_depth_opts *o, const uint16_t *depth_mm)
 {
-    const int W = o->k.width, s = g->step;
-    const int a = s / 4, b = (3 * s) / 4;
-    const int offs[4][2] = {{a, a}, {b, a}, {a, b}, {b, b}};
+    const int W = o->k.width, s = g->step, gw = g->gw;
+    const int a = s / 4, b = (3 * s) / 4, db = b - a;
     const uint16_t zmin = (uint16_t)fminf(65535.f, o->z_min * 1000.f);
     const uint16_t zmax = (uint16_t)fminf(65535.f, o->z_max * 1000.f);
     const float ifx = (float)(1.0 / o->k.fx), ify = (float)(1.0 / o->k.fy);
     const float cx = (float)o->k.cx, cy = (float)o->k.cy;
+    /* Branch-free: a probe's key is (d - lo) mod 2^16 << 2 | its index, so that the smallest key
+     * is the nearest reading in the gate [lo, zmax] (the first probe on ties), and a smallest
+     * key of lim or more means that no probe passed. lo is at least 1: 0 is no reading. */
+    const uint32_t lo = zmin ? zmin : 1u;
+    const uint32_t lim = zmax >= lo ? (zmax - lo + 1u) << 2 : 0u; /* keys below it passed */
+    memset(g->comp, 0xff, (size_t)g->n * sizeof *g->comp); /* -1 */
+    memset(g->person, 0, (size_t)g->n);
     for (int gy = 0; gy < g->gh; gy++) {
-        for (int gx = 0; gx < g->gw; gx++) {
-            int i = gy * g->gw + gx;
-            uint16_t best = 0;
-            int bu = gx * s + a, bv = gy * s + a;
-            for (int k = 0; k < 4; k++) {
-                int u = gx * s + offs[k][0], v = gy * s + offs[k][1];
-                uint16_t d = depth_mm[(size_t)v * W + u];
-                if (d >= zmin && d <= zmax && (best == 0 || d < best)) {
-                    best = d;
-                    bu = u;
-                    bv = v;
-                }
-            }
-            g->px[2 * i] = (uint16_t)bu;
-            g->px[2 * i + 1] = (uint16_t)bv;
-            g->comp[i] = -1;
-            g->person[i] = 0;
-            if (!best) {
-                g->z[i] = 0;
+        const int va = gy * s + a;
+        const uint16_t *ra = depth_mm + (size_t)va * W + a, *rb = ra + (size_t)db * W;
+        uint8_t *probe = g->probe + gy * gw;
+        float *zr = g->z + gy * gw, *P = g->P + 3 * gy * gw;
+        const float fy[2] = {-((float)va - cy), -((float)(va + db) - cy)};
+        for (int gx = 0, u0 = 0; gx < gw; gx++, u0 += s) {
+            uint32_t k0 = (uint32_t)(uint16_t)(ra[u0] - lo) << 2;
+            uint32_t k1 = (uint32_t)(uint16_t)(ra[u0 + db] - lo) << 2 | 1u;
+            uint32_t k2 = (uint32_t)(uint16_t)(rb[u0] - lo) << 2 | 2u;
+            uint32_t k3 = (uint32_t)(uint16_t)(rb[u0 + db] - lo) << 2 | 3u;
+            uint32_t m01 = k0 < k1 ? k0 : k1, m23 = k2 < k3 ? k2 : k3;
+            uint32_t m = m01 < m23 ? m01 : m23;
+            const int ok = m < lim, k = ok ? (int)(m & 3u) : 0, bu = u0 + a + (k & 1) * db;
+            probe[gx] = (uint8_t)k;
+            if (!ok) {
+                zr[gx] = 0;
                 continue;
             }
-            float z = best * 0.001f;
-            g->z[i] = z;
-            g->P[3 * i] = ((float)bu - cx) * z * ifx;
-            g->P[3 * i + 1] = -((float)bv - cy) * z * ify;
-            g->P[3 * i + 2] = -z;
+            float z = (float)((m >> 2) + lo) * 0.001f;
+            zr[gx] = z;
+            P[3 * gx] = ((float)bu - cx) * z * ifx;
+            P[3 * gx + 1] = fy[k >> 1] * z * ify;
+            P[3 * gx + 2] = -z;
         }
     }
 }
@@ -173,10 +188,12 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
             g->stack[nc++] = i;
     if (nc < 64)
         return 0;
-    /* a fixed random subset for scoring, in g->cells (free until drv__segment_person) */
+    /* a fixed random subset for scoring */
     int m = nc < FLOOR_SUBSET ? nc : FLOOR_SUBSET;
+    float sub[3 * FLOOR_SUBSET]; /* their points, contiguous */
     for (int k = 0; k < m; k++)
-        g->cells[k] = g->stack[(int)(drv__rand01(rng) * nc)];
+        memcpy(sub + 3 * k, g->P + 3 * g->stack[(int)(drv__rand01(rng) * nc)], 3 * sizeof *sub);
+    const float tol = o->floor_tol;
     const float cos_tilt = cosf(o->floor_max_tilt * (float)M_PI / 180.f);
     int best = 0;
     float bp[4] = {0, 1, 0, 0};
@@ -200,16 +217,17 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
         if (ny < cos_tilt)
             continue;
         float d = -(nx * A[0] + ny * A[1] + nz * A[2]);
-        int cnt = 0, below = 0;
-        for (int k = 0; k < m; k++) {
-            const float *p = g->P + 3 * g->cells[k];
+        /* score on the subset; stop as soon as too much lies below (a floor has (almost)
+         * nothing below it) or the rest of the subset could not beat the best */
+        int cnt = 0, below = 0, k = 0;
+        const int below_max = m / 20;
+        for (; k < m && below <= below_max && cnt + (m - k) > best; k++) {
+            const float *p = sub + 3 * k;
             float h = nx * p[0] + ny * p[1] + nz * p[2] + d;
-            if (fabsf(h) < o->floor_tol)
-                cnt++;
-            else if (h < 0)
-                below++;
+            cnt += fabsf(h) < tol;
+            below += h < 0 && !(fabsf(h) < tol);
         }
-        if (below * 20 > m) /* a floor has (almost) nothing below it */
+        if (below > below_max || cnt <= best)
             continue;
         if (cnt > best) {
             best = cnt;
@@ -222,20 +240,34 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
     if (best * 4 < m)
         return 0;
     /* refine: least squares y = a x + b z + c over all inliers (the floor is near-horizontal) */
-    double S[3][3] = {{0}}, r[3] = {0};
+    double S[3][3], r[3];
+    double sxx = 0, sxz = 0, szz = 0, sx = 0, sz = 0, sxy = 0, szy = 0, sy = 0;
     int cnt = 0;
     for (int k = 0; k < nc; k++) {
         const float *p = g->P + 3 * g->stack[k];
-        if (fabsf(bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3]) >= o->floor_tol)
+        if (fabsf(bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3]) >= tol)
             continue;
-        double q[3] = {p[0], p[2], 1.0};
-        for (int i = 0; i < 3; i++) {
-            for (int j = 0; j < 3; j++)
-                S[i][j] += q[i] * q[j];
-            r[i] += q[i] * p[1];
-        }
+        /* the sums of q q^T and q y for q = (x, z, 1), y: S is symmetric */
+        const double x = p[0], y = p[1], zz = p[2];
+        sxx += x * x;
+        sxz += x * zz;
+        szz += zz * zz;
+        sx += x;
+        sz += zz;
+        sxy += x * y;
+        szy += zz * y;
+        sy += y;
         cnt++;
     }
+    S[0][0] = sxx;
+    S[0][1] = S[1][0] = sxz;
+    S[0][2] = S[2][0] = sx;
+    S[1][1] = szz;
+    S[1][2] = S[2][1] = sz;
+    S[2][2] = cnt;
+    r[0] = sxy;
+    r[1] = szy;
+    r[2] = sy;
     double det = S[0][0] * (S[1][1] * S[2][2] - S[1][2] * S[2][1]) -
                  S[0][1] * (S[1][0] * S[2][2] - S[1][2] * S[2][0]) +
                  S[0][2] * (S[1][0] * S[2][1] - S[1][1] * S[2][0]);
@@ -259,10 +291,8 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
     }
     memcpy(plane, bp, sizeof bp);
     for (int i = 0; i < g->n; i++) {
-        if (g->z[i] <= 0)
-            continue;
         const float *p = g->P + 3 * i;
-        if (bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3] < o->floor_tol)
+        if (g->z[i] > 0 && bp[0] * p[0] + bp[1] * p[1] + bp[2] * p[2] + bp[3] < tol)
             g->z[i] = 0;
     }
     return 1;
@@ -273,11 +303,12 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     const int gw = g->gw, gh = g->gh;
     const float jump = o->seg_jump;
     const double sx = g->step / o->k.fx, sy = g->step / o->k.fy;
+    const int off[8] = {-gw - 1, -gw, -gw + 1, -1, 1, gw - 1, gw, gw + 1}; /* the scan order */
     int ncomp = 0;
     for (int i = 0; i < g->n; i++) {
         if (g->z[i] <= 0 || g->comp[i] >= 0)
             continue;
-        int c = ncomp++, top = 0, count = 0;
+        int c = ncomp++, top = 0, count = 0, last = i; /* i: its first cell in scan order */
         double area = 0, sumz = 0;
         g->comp[i] = c;
         g->stack[top++] = i;
@@ -285,9 +316,20 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
             int j = g->stack[--top];
             float zj = g->z[j];
             count++;
+            last = j > last ? j : last;
             area += zj * sx * zj * sy;
             sumz += zj;
             int x = j % gw, y = j / gw;
+            if (x > 0 && y > 0 && x < gw - 1 && y < gh - 1) { /* inside: no bounds to test */
+                for (int d = 0; d < 8; d++) {
+                    int k = j + off[d];
+                    if (g->comp[k] >= 0 || g->z[k] <= 0 || fabsf(g->z[k] - zj) >= jump)
+                        continue;
+                    g->comp[k] = c;
+                    g->stack[top++] = k;
+                }
+                continue;
+            }
             for (int dy = -1; dy <= 1; dy++) {
                 int yy = y + dy;
                 if (yy < 0 || yy >= gh)
@@ -307,6 +349,8 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
         g->c_area[c] = (float)area;
         g->c_sumz[c] = (float)sumz;
         g->c_count[c] = count;
+        g->c_first[c] = i;
+        g->c_last[c] = last;
     }
     g->ncells = 0;
     g->mean_z = 0;
@@ -328,7 +372,7 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     if (best < 0)
         return 0;
     double cs[3] = {0, 0, 0};
-    for (int i = 0; i < g->n; i++) {
+    for (int i = g->c_first[best]; i <= g->c_last[best]; i++) {
         if (g->comp[i] != best)
             continue;
         g->person[i] = 1;
@@ -342,9 +386,32 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
     /* occluded limbs: c_count[c] < 0 marks a component to attach */
     const int nmain = g->ncells;
     const float amax_attach = o->attach_frac * g->c_area[best];
-    int nattach = 0;
-    for (int k = 0; k < nmain && o->attach_jump > 0; k++) {
-        int j = g->cells[k], x = j % gw, y = j / gw;
+    int nattach = 0, alo = g->n, ahi = -1; /* the attached components lie in [alo, ahi] */
+    const int off9[9] = {-gw - 1, -gw, -gw + 1, -1, 0, 1, gw - 1, gw, gw + 1};
+    for (int k = 0, y = 0, row = 0; k < nmain && o->attach_jump > 0; k++) {
+        const int j = g->cells[k];
+        if (j >= row + gw) { /* the main component's cells ascend: the row follows them */
+            y = j / gw;
+            row = y * gw;
+        }
+        const int x = j - row;
+        if (x > 0 && y > 0 && x < gw - 1 && y < gh - 1) { /* inside: no bounds to test */
+            const int32_t *cj = g->comp + j;
+            if (((cj[-gw - 1] ^ best) | (cj[-gw] ^ best) | (cj[-gw + 1] ^ best) | (cj[-1] ^ best) |
+                 (cj[1] ^ best) | (cj[gw - 1] ^ best) | (cj[gw] ^ best) | (cj[gw + 1] ^ best)) == 0)
+                continue; /* all around is the person */
+            for (int d = 0; d < 9; d++) {
+                int i = j + off9[d], c = g->comp[i];
+                if (c == best || c < 0 || g->c_count[c] < 0 || g->c_area[c] > amax_attach ||
+                    fabsf(g->z[i] - g->z[j]) >= o->attach_jump)
+                    continue;
+                g->c_count[c] = -g->c_count[c];
+                nattach++;
+                alo = g->c_first[c] < alo ? g->c_first[c] : alo;
+                ahi = g->c_last[c] > ahi ? g->c_last[c] : ahi;
+            }
+            continue;
+        }
         for (int dy = -1; dy <= 1; dy++) {
             int yy = y + dy;
             if (yy < 0 || yy >= gh)
@@ -359,10 +426,12 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
                     continue;
                 g->c_count[c] = -g->c_count[c];
                 nattach++;
+                alo = g->c_first[c] < alo ? g->c_first[c] : alo;
+                ahi = g->c_last[c] > ahi ? g->c_last[c] : ahi;
             }
         }
     }
-    for (int i = 0; i < g->n && nattach; i++) {
+    for (int i = alo; i <= ahi; i++) {
         int c = g->comp[i];
         if (c >= 0 && c != best && g->c_count[c] < 0) {
             g->person[i] = 1;
@@ -385,8 +454,13 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
         return 0;
     /* work inside the person's bounding box grown by a cell (all beyond it is outside) */
     int x0 = gw, x1 = -1, y0 = gh, y1 = -1;
-    for (int k = 0; k < g->ncells; k++) {
-        int x = g->cells[k] % gw, y = g->cells[k] / gw;
+    for (int k = 0, y = 0, row = 0; k < g->ncells; k++) { /* cells ascend: row follows them */
+        const int c = g->cells[k];
+        if (c < row || c >= row + gw) {
+            y = c / gw;
+            row = y * gw;
+        }
+        const int x = c - row;
         x0 = x < x0 ? x : x0;
         x1 = x > x1 ? x : x1;
         y0 = y < y0 ? y : y0;
@@ -396,31 +470,40 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
     y0 = y0 > 0 ? y0 - 1 : 0;
     x1 = x1 < gw - 1 ? x1 + 1 : gw - 1;
     y1 = y1 < gh - 1 ? y1 + 1 : gh - 1;
-    /* the outside: flood from the box's rim through non-person cells (4-neighbour); -2 = outside */
+    /* the outside: flood from the box's rim through non-person cells (4-neighbour); -2 = outside.
+     * The stack holds y << 16 | x (no division per cell). */
     int top = 0;
-    for (int y = y0; y <= y1; y++)
+    for (int y = y0; y <= y1; y++) {
+        const int rim = y == y0 || y == y1;
         for (int x = x0; x <= x1; x++) {
             int i = y * gw + x;
             g->hole[i] = -1;
-            if (!g->person[i] && (x == x0 || y == y0 || x == x1 || y == y1)) {
+            if (!g->person[i] && (rim || x == x0 || x == x1)) {
                 g->hole[i] = -2;
-                g->stack[top++] = i;
+                g->stack[top++] = y << 16 | x;
             }
         }
-    static const int d4[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    }
     while (top) {
-        int j = g->stack[--top], x = j % gw, y = j / gw;
-        for (int k = 0; k < 4; k++) {
-            int xx = x + d4[k][0], yy = y + d4[k][1];
-            if (xx < x0 || yy < y0 || xx > x1 || yy > y1)
-                continue;
-            int i = yy * gw + xx;
-            if (g->person[i] || g->hole[i] != -1)
-                continue;
-            g->hole[i] = -2;
-            g->stack[top++] = i;
+        const int p = g->stack[--top], x = p & 0xffff, y = p >> 16, j = y * gw + x;
+        if (x < x1 && !g->person[j + 1] && g->hole[j + 1] == -1) {
+            g->hole[j + 1] = -2;
+            g->stack[top++] = p + 1;
+        }
+        if (x > x0 && !g->person[j - 1] && g->hole[j - 1] == -1) {
+            g->hole[j - 1] = -2;
+            g->stack[top++] = p - 1;
+        }
+        if (y < y1 && !g->person[j + gw] && g->hole[j + gw] == -1) {
+            g->hole[j + gw] = -2;
+            g->stack[top++] = p + (1 << 16);
+        }
+        if (y > y0 && !g->person[j - gw] && g->hole[j - gw] == -1) {
+            g->hole[j - gw] = -2;
+            g->stack[top++] = p - (1 << 16);
         }
     }
+    static const int d4[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
     /* the holes, one at a time: flood, then measure */
     const float z = g->mean_z;
     const float cell_m = z * (float)g->step / (float)o->k.fx; /* a cell's size at the person */
@@ -434,8 +517,11 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
         return 0;
     ux /= un, uy /= un, rx /= rn, ry /= rn;
     int nout = 0, nh = 0;
-    for (int s0 = y0 * gw + x0; s0 <= y1 * gw + x1 && nh < LOOP_MAX_HOLES; s0++) {
-        if (s0 % gw < x0 || s0 % gw > x1 || g->person[s0] || g->hole[s0] != -1)
+    /* the box's cells row by row (x wraps to x0 and y steps on at the row's end) */
+    for (int y = y0, x = x0; y <= y1 && nh < LOOP_MAX_HOLES;
+         x = x < x1 ? x + 1 : x0, y += x == x0) {
+        const int s0 = y * gw + x;
+        if (g->person[s0] || g->hole[s0] != -1)
             continue;
         int id = nh++, count = 0, b = s0, oc = s0;
         float bh = FLT_MAX, ol = 0, su = 0, sv = 0, zlo = FLT_MAX, zhi = 0;
@@ -452,8 +538,9 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
                     continue;
                 int i = yy * gw + xx;
                 if (g->person[i]) { /* the loop's rim */
-                    zlo = fminf(zlo, g->z[i]);
-                    zhi = fmaxf(zhi, g->z[i]);
+                    const float zi = g->z[i];
+                    zlo = zi < zlo ? zi : zlo;
+                    zhi = zi > zhi ? zi : zhi;
                     continue;
                 }
                 if (g->hole[i] != -1)
