@@ -654,10 +654,6 @@ static inline __attribute__((always_inline)) void optimise_shapes(mdl_synth *s)
         update_local_needed(s, i);
 }
 
-/* The full local shape y = mean + V lambda (eq. 6) of an instance's n8 (padded) vertices, needed
- * only by the blend, then w (W y + t) into lx, ly, lz, from the structure-of-arrays copies
- * (mean: x, y, z blocks of n8; V: k such triples): four vertices at a time, or eight on AVX2
- * (the same operations in the same order, so the same result). */
 /* Step 3 of the header: alternate alignment and shape optimisation. Compiled for plain x86-64
  * and, on AVX2 machines, with one register per 4-vector (chosen in mdl_synth_create; the same
  * operations in the same order, so the same result). */
@@ -688,66 +684,44 @@ __attribute__((target("avx2"))) static void alternate_avx2(mdl_synth *s)
 }
 #endif
 
-static void blend_place4(int n8, int k, const float *mean, const float *V, const float *lam,
-                         const float *iw, const float W[9], const float tw[3], float *lx, float *ly,
-                         float *lz)
-{
-    for (int q = 0; q < n8; q += 4) {
-        mdl__v4f x, y, z, w;
-        memcpy(&x, mean + q, sizeof x);
-        memcpy(&y, mean + n8 + q, sizeof y);
-        memcpy(&z, mean + 2 * n8 + q, sizeof z);
-        for (int a = 0; a < k; a++) {
-            const float *va = V + (size_t)a * 3 * n8 + q;
-            mdl__v4f vx, vy, vz;
-            memcpy(&vx, va, sizeof vx);
-            memcpy(&vy, va + n8, sizeof vy);
-            memcpy(&vz, va + 2 * n8, sizeof vz);
-            x += lam[a] * vx;
-            y += lam[a] * vy;
-            z += lam[a] * vz;
-        }
-        memcpy(&w, iw + q, sizeof w);
-        mdl__v4f ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);
-        mdl__v4f oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);
-        mdl__v4f oz = w * (W[6] * x + W[7] * y + W[8] * z + tw[2]);
-        memcpy(lx + q, &ox, sizeof ox);
-        memcpy(ly + q, &oy, sizeof oy);
-        memcpy(lz + q, &oz, sizeof oz);
+/* The full local shape y = mean + V lambda (eq. 6) of an instance's n8 (padded) vertices, needed
+ * only by the blend, then w (W y + t) into lx, ly, lz, from the structure-of-arrays copies
+ * (mean: x, y, z blocks of n8; V: k such triples), VT being vectors of WIDTH floats: four
+ * vertices at a time, or eight on AVX2 - one body for both, the same operations in the same
+ * order, so the same result. */
+#define BLEND_PLACE(NAME, ATTR, VT, WIDTH)                                                         \
+    ATTR static void NAME(int n8, int k, const float *mean, const float *V, const float *lam,     \
+                          const float *iw, const float W[9], const float tw[3], float *lx,         \
+                          float *ly, float *lz)                                                    \
+    {                                                                                              \
+        for (int q = 0; q < n8; q += WIDTH) {                                                      \
+            VT x, y, z, w;                                                                         \
+            memcpy(&x, mean + q, sizeof x);                                                        \
+            memcpy(&y, mean + n8 + q, sizeof y);                                                   \
+            memcpy(&z, mean + 2 * n8 + q, sizeof z);                                               \
+            for (int a = 0; a < k; a++) {                                                          \
+                const float *va = V + (size_t)a * 3 * n8 + q;                                      \
+                VT vx, vy, vz;                                                                     \
+                memcpy(&vx, va, sizeof vx);                                                        \
+                memcpy(&vy, va + n8, sizeof vy);                                                   \
+                memcpy(&vz, va + 2 * n8, sizeof vz);                                               \
+                x += lam[a] * vx;                                                                  \
+                y += lam[a] * vy;                                                                  \
+                z += lam[a] * vz;                                                                  \
+            }                                                                                      \
+            memcpy(&w, iw + q, sizeof w);                                                          \
+            VT ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);                                  \
+            VT oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);                                  \
+            VT oz = w * (W[6] * x + W[7] * y + W[8] * z + tw[2]);                                  \
+            memcpy(lx + q, &ox, sizeof ox);                                                        \
+            memcpy(ly + q, &oy, sizeof oy);                                                        \
+            memcpy(lz + q, &oz, sizeof oz);                                                        \
+        }                                                                                          \
     }
-}
 
+BLEND_PLACE(blend_place4, , mdl__v4f, 4)
 #ifdef SYNTH_AVX2
-__attribute__((target("avx2"))) static void blend_place8(int n8, int k, const float *mean,
-                                                         const float *V, const float *lam,
-                                                         const float *iw, const float W[9],
-                                                         const float tw[3], float *lx, float *ly,
-                                                         float *lz)
-{
-    for (int q = 0; q < n8; q += 8) {
-        mdl__v8f x, y, z, w;
-        memcpy(&x, mean + q, sizeof x);
-        memcpy(&y, mean + n8 + q, sizeof y);
-        memcpy(&z, mean + 2 * n8 + q, sizeof z);
-        for (int a = 0; a < k; a++) {
-            const float *va = V + (size_t)a * 3 * n8 + q;
-            mdl__v8f vx, vy, vz;
-            memcpy(&vx, va, sizeof vx);
-            memcpy(&vy, va + n8, sizeof vy);
-            memcpy(&vz, va + 2 * n8, sizeof vz);
-            x += lam[a] * vx;
-            y += lam[a] * vy;
-            z += lam[a] * vz;
-        }
-        memcpy(&w, iw + q, sizeof w);
-        mdl__v8f ox = w * (W[0] * x + W[1] * y + W[2] * z + tw[0]);
-        mdl__v8f oy = w * (W[3] * x + W[4] * y + W[5] * z + tw[1]);
-        mdl__v8f oz = w * (W[6] * x + W[7] * y + W[8] * z + tw[2]);
-        memcpy(lx + q, &ox, sizeof ox);
-        memcpy(ly + q, &oy, sizeof oy);
-        memcpy(lz + q, &oz, sizeof oz);
-    }
-}
+BLEND_PLACE(blend_place8, __attribute__((target("avx2"))), mdl__v8f, 8)
 #endif
 
 int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, float *Vout,

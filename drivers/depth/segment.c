@@ -298,6 +298,21 @@ int drv__segment_floor(drv__grid *g, const drv_depth_opts *o, uint64_t *rng, flo
     return 1;
 }
 
+/* Marks the component of cell i (a neighbour of the person's cell j) for attaching when it is
+ * small and lies across a step below attach_jump: c_count < 0; [alo, ahi] grows to hold it. */
+static inline void attach_across(drv__grid *g, const drv_depth_opts *o, int j, int i, int best,
+                                 float amax_attach, int *nattach, int *alo, int *ahi)
+{
+    const int c = g->comp[i];
+    if (c < 0 || c == best || g->c_count[c] < 0 || g->c_area[c] > amax_attach ||
+        fabsf(g->z[i] - g->z[j]) >= o->attach_jump)
+        return;
+    g->c_count[c] = -g->c_count[c];
+    (*nattach)++;
+    *alo = g->c_first[c] < *alo ? g->c_first[c] : *alo;
+    *ahi = g->c_last[c] > *ahi ? g->c_last[c] : *ahi;
+}
+
 int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
 {
     const int gw = g->gw, gh = g->gh;
@@ -400,16 +415,8 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
             if (((cj[-gw - 1] ^ best) | (cj[-gw] ^ best) | (cj[-gw + 1] ^ best) | (cj[-1] ^ best) |
                  (cj[1] ^ best) | (cj[gw - 1] ^ best) | (cj[gw] ^ best) | (cj[gw + 1] ^ best)) == 0)
                 continue; /* all around is the person */
-            for (int d = 0; d < 9; d++) {
-                int i = j + off9[d], c = g->comp[i];
-                if (c == best || c < 0 || g->c_count[c] < 0 || g->c_area[c] > amax_attach ||
-                    fabsf(g->z[i] - g->z[j]) >= o->attach_jump)
-                    continue;
-                g->c_count[c] = -g->c_count[c];
-                nattach++;
-                alo = g->c_first[c] < alo ? g->c_first[c] : alo;
-                ahi = g->c_last[c] > ahi ? g->c_last[c] : ahi;
-            }
+            for (int d = 0; d < 9; d++)
+                attach_across(g, o, j, j + off9[d], best, amax_attach, &nattach, &alo, &ahi);
             continue;
         }
         for (int dy = -1; dy <= 1; dy++) {
@@ -420,14 +427,7 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
                 int xx = x + dx;
                 if (xx < 0 || xx >= gw)
                     continue;
-                int i = yy * gw + xx, c = g->comp[i];
-                if (c < 0 || c == best || g->c_count[c] < 0 || g->c_area[c] > amax_attach ||
-                    fabsf(g->z[i] - g->z[j]) >= o->attach_jump)
-                    continue;
-                g->c_count[c] = -g->c_count[c];
-                nattach++;
-                alo = g->c_first[c] < alo ? g->c_first[c] : alo;
-                ahi = g->c_last[c] > ahi ? g->c_last[c] : ahi;
+                attach_across(g, o, j, yy * gw + xx, best, amax_attach, &nattach, &alo, &ahi);
             }
         }
     }
