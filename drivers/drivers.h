@@ -47,12 +47,22 @@ typedef struct drv_frame {
 
 typedef struct drv_source drv_source;
 
+/* The live controls a source takes (drv_source.controls, set by its open; drv_source_control
+ * refuses the others with -ENOTSUP). DRV_CTL_PAUSE covers "pause" with 1 (pause) and 0 (resume). */
+enum {
+    DRV_CTL_PAUSE = 1 << 0, /* "pause" 1/0 */
+    DRV_CTL_SEEK = 1 << 1,  /* "seek" frame index */
+    DRV_CTL_SPEED = 1 << 2, /* "speed" 0 < factor <= 100 */
+    DRV_CTL_LOOP = 1 << 3,  /* "loop" 1/0 */
+};
+
 typedef struct drv_source_ops {
     const char *scheme; /* "replay", "openni2", "v4l2", "fakenect", ... */
     int (*open)(drv_source *s, const char *arg, char *err);
     int (*start)(drv_source *s, char *err);
     int (*read)(drv_source *s, drv_frame *f, int timeout_ms, char *err);
-    int (*control)(drv_source *s, const char *key, double value, char *err); /* may be NULL */
+    /* may be NULL (no controls); called only for keys whose DRV_CTL_* bit is in s->controls */
+    int (*control)(drv_source *s, const char *key, double value, char *err);
     void (*stop)(drv_source *s);
     void (*close)(drv_source *s);
 } drv_source_ops;
@@ -65,6 +75,7 @@ struct drv_source {
     double fps;           /* nominal rate, 0 if unknown */
     drv_state state;
     int detached;         /* the device was released by drv_source_reopen and none is open yet */
+    unsigned controls;    /* DRV_CTL_* bits this source takes (0: none), set by open */
 };
 
 /* spec: "scheme:argument", e.g. "replay:walk.c3d?loop=1&speed=0.5&start=10". */
@@ -75,7 +86,8 @@ int drv_source_start(drv_source *s, char *err);
  * marker set; then start it. On failure the handle stays LOST, with no device; try again later. */
 int drv_source_reopen(drv_source *s, const char *spec, char *err);
 int drv_source_read(drv_source *s, drv_frame *f, int timeout_ms, char *err);
-/* Replay controls: "pause" (1/0), "seek" (frame), "speed" (factor). -ENOTSUP when not supported. */
+/* Live controls: "pause" (1/0), "seek" (frame), "speed" (factor), "loop" (1/0). -ENOTSUP when the
+ * key's DRV_CTL_* bit is not in s->controls. */
 int drv_source_control(drv_source *s, const char *key, double value, char *err);
 void drv_source_stop(drv_source *s);
 void drv_source_close(drv_source *s); /* NULL is fine */
@@ -93,6 +105,8 @@ void drv_device_watch_destroy(drv_device_watch *w);
 
 /* The registry of source kinds (source.c); each implementation file adds its ops there. */
 const drv_source_ops *drv_source_find_ops(const char *scheme);
+/* The DRV_CTL_* bit of a control key ("pause", "seek", "speed", "loop"), 0 for others. */
+unsigned drv_control_bit(const char *key);
 /* "closed", "open", "streaming", "ended", "lost". */
 const char *drv_state_name(drv_state st);
 
@@ -102,8 +116,8 @@ const char *drv_state_name(drv_state st);
  * file's fps divided by speed, paced on CLOCK_MONOTONIC; each frame's t_capture_us is the time it
  * was released. loop=1 wraps to frame 0 at the end (seq keeps counting); otherwise the source ends
  * (DRV_EEOF). start is the first frame; scale (metres per file unit) and up override the file's
- * conventions. Controls: "pause" (1/0), "seek" (frame index), "speed" (0 < factor <= 100),
- * "loop" (1/0). A frame that is more than 250 ms late re-anchors the clock rather than bursting. */
+ * conventions. Controls (all four bits): "pause" (1/0), "seek" (frame index), "speed"
+ * (0 < factor <= 100), "loop" (1/0). A frame that is more than 250 ms late re-anchors the clock rather than bursting. */
 
 #ifdef __cplusplus
 }

@@ -116,6 +116,7 @@ int drv_source_reopen(drv_source *s, const char *spec, char *err)
     s->impl = t->impl;
     s->names = t->names;
     s->fps = t->fps;
+    s->controls = t->controls;
     s->detached = 0;
     s->state = DRV_STATE_OPEN;
     free(t);
@@ -158,12 +159,26 @@ int drv_source_read(drv_source *s, drv_frame *f, int timeout_ms, char *err)
     return r;
 }
 
+unsigned drv_control_bit(const char *key)
+{
+    static const struct {
+        const char *key;
+        unsigned bit;
+    } keys[] = {{"pause", DRV_CTL_PAUSE}, {"seek", DRV_CTL_SEEK}, {"speed", DRV_CTL_SPEED},
+                {"loop", DRV_CTL_LOOP}};
+    for (size_t i = 0; key && i < sizeof keys / sizeof keys[0]; i++)
+        if (!strcmp(key, keys[i].key))
+            return keys[i].bit;
+    return 0;
+}
+
 int drv_source_control(drv_source *s, const char *key, double value, char *err)
 {
     if (!s || !key)
         return drv__err(err, -EINVAL, "source: NULL");
-    if (!s->ops->control)
-        return drv__err(err, -ENOTSUP, "source %s: no controls", s->ops->scheme);
+    if (!s->ops->control || !(s->controls & drv_control_bit(key)))
+        return drv__err(err, -ENOTSUP, "source %s: no control '%s'%s", s->ops->scheme, key,
+                        s->controls ? "" : " (it takes no controls)");
     if (s->detached)
         return drv__err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
     int r = s->ops->control(s, key, value, err);

@@ -20,6 +20,14 @@ static const struct {
     {"ping", SRV_CTL_PING, NULL},
 };
 
+const char *srv_control_name(int kind)
+{
+    for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; i++)
+        if (kinds[i].kind == kind)
+            return kinds[i].type;
+    return NULL;
+}
+
 static int fail(const char **code, const char *c, char *msg, size_t msglen, const char *text)
 {
     *code = c;

@@ -25,6 +25,9 @@ enum {
     SRV_CTL_PING,
 };
 
+/* A set of control kinds, e.g. what a source accepts: SRV_CTL_BIT(SRV_CTL_PAUSE) | ... */
+#define SRV_CTL_BIT(kind) (1u << (kind))
+
 #define SRV_CTL_ID_LEN 80   /* the id, as JSON text */
 #define SRV_REPLY_LEN 1024  /* every reply fits */
 
@@ -41,6 +44,9 @@ typedef struct srv_control {
  * the message allows, so an error reply can still name the request. */
 int srv_control_parse(const char *txt, size_t len, srv_control *out, const char **code, char *msg,
                       size_t msglen);
+
+/* The static name of a kind ("pause", ...), or NULL. */
+const char *srv_control_name(int kind);
 
 /* Reply texts into buf (SRV_REPLY_LEN); return the length. */
 size_t srv_reply_ack(char *buf, const srv_control *c);

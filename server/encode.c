@@ -2,6 +2,7 @@
  * (see encode.h and docs/PROTOCOL.md). */
 #include "srv_err.h"
 #include "encode.h"
+#include "control.h"
 #include "daemon_config.h"
 
 #include <cjson/cJSON.h>
@@ -79,8 +80,9 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
     for (int i = 0; i < g->nm; i++) {
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "name", info->markers[i].name);
-        cJSON_AddStringToObject(o, "source", info->markers[i].source[0] ? info->markers[i].source
-                                                                        : info->markers[i].name);
+        const char *own = info->markers[i].source[0] ? info->markers[i].source : info->markers[i].name;
+        cJSON_AddStringToObject(o, "source", own);
+        cJSON_AddStringToObject(o, "live", src && src->lookup && src->lookup[i] ? src->lookup[i] : own);
         cJSON_AddBoolToObject(o, "bound", g->map && g->map[i] >= 0);
         cJSON_AddItemToArray(mk, o);
     }
@@ -90,10 +92,10 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
     cJSON_AddNumberToObject(s, "fps", src ? src->fps : 0);
     cJSON_AddNumberToObject(s, "markers", src ? src->count : 0);
     cJSON *ctl = cJSON_AddArrayToObject(s, "controls");
-    if (src && src->controllable)
-        for (const char *const *c = (const char *const[]){"pause", "resume", "seek", "speed", NULL};
-             *c; c++)
-            cJSON_AddItemToArray(ctl, cJSON_CreateString(*c));
+    static const int offered[] = {SRV_CTL_PAUSE, SRV_CTL_RESUME, SRV_CTL_SEEK, SRV_CTL_SPEED};
+    for (size_t i = 0; src && i < sizeof offered / sizeof offered[0]; i++)
+        if (src->controls & SRV_CTL_BIT(offered[i]))
+            cJSON_AddItemToArray(ctl, cJSON_CreateString(srv_control_name(offered[i])));
     cJSON *e = cJSON_AddArrayToObject(h, "encodings");
     for (int i = 0; i < SRV_ENC_COUNT; i++)
         cJSON_AddItemToArray(e, cJSON_CreateString(enc_names[i]));

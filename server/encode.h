@@ -73,7 +73,10 @@ typedef struct srv_source_desc {
     double fps;
     int count;                 /* source markers */
     const char *const *names;  /* count labels */
-    int controllable;          /* pause/resume/seek/speed accepted */
+    unsigned controls;         /* SRV_CTL_BIT()s of the source controls accepted (pause, resume,
+                                  seek, speed), listed in the hello's source.controls */
+    const char *const *lookup; /* nm: the live label each model marker looks up (after the label
+                                  map), for the hello's markers[].live; NULL: its own label */
 } srv_source_desc;
 
 struct srv_gen {

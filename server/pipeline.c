@@ -97,6 +97,20 @@ void srv_bundle_fini(srv_bundle *b)
     memset(b, 0, sizeof *b);
 }
 
+unsigned srv_pipeline_source_controls(const drv_source *src)
+{
+    unsigned c = 0;
+    if (src && src->ops->control) {
+        if (src->controls & DRV_CTL_PAUSE)
+            c |= SRV_CTL_BIT(SRV_CTL_PAUSE) | SRV_CTL_BIT(SRV_CTL_RESUME);
+        if (src->controls & DRV_CTL_SEEK)
+            c |= SRV_CTL_BIT(SRV_CTL_SEEK);
+        if (src->controls & DRV_CTL_SPEED)
+            c |= SRV_CTL_BIT(SRV_CTL_SPEED);
+    }
+    return c;
+}
+
 static void warn_labels(void *ud, const char *msg)
 {
     srv_log(SRV_LOG_WARN, "model %s: labels: %s", (const char *)ud, msg);
@@ -153,18 +167,30 @@ int srv_pipeline_load(const char *model_path, const char *labels, const drv_sour
         srv_log(SRV_LOG_WARN, "model %s: %d of %d markers are not in the source (%s); they count "
                 "as missing", model_path, info.nmarkers - bound, info.nmarkers, names);
     }
-    srv_labels_destroy(lmap);
+    /* the live label each marker is bound to, or looks up in vain, for the hello */
+    const char **lookup = calloc((size_t)(info.nmarkers > 0 ? info.nmarkers : 1), sizeof *lookup);
+    if (!lookup) {
+        free(map);
+        srv_labels_destroy(lmap);
+        mdl_model_destroy(model);
+        return srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
+    }
+    for (int i = 0; i < info.nmarkers; i++)
+        lookup[i] = map[i] >= 0 ? src->names[map[i]] : srv_labels_lookup(lmap, info.markers[i].source);
     srv_source_desc desc = {
         .spec = spec,
         .scheme = src->ops->scheme,
         .fps = src->fps,
         .count = src->count,
         .names = (const char *const *)src->names,
-        .controllable = src->ops->control != NULL,
+        .controls = srv_pipeline_source_controls(src),
+        .lookup = lookup,
     };
     out->model = model;
     r = srv_gen_create(&info, map, &desc, id, &out->gen, e);
+    free(lookup);
     free(map);
+    srv_labels_destroy(lmap);
     if (r) {
         srv_bundle_fini(out);
         return srv_err(err, r, "model %s: %s", model_path, e);

@@ -75,6 +75,9 @@ int srv_pipeline_reload_done(srv_pipeline *p, int *ok, char *err);
 
 drv_state srv_pipeline_source_state(srv_pipeline *p);
 const drv_source *srv_pipeline_source(srv_pipeline *p);
+/* The control kinds a source accepts, as SRV_CTL_BIT()s: pause and resume for DRV_CTL_PAUSE, seek
+ * for DRV_CTL_SEEK, speed for DRV_CTL_SPEED (what the hello advertises). */
+unsigned srv_pipeline_source_controls(const drv_source *src);
 uint64_t srv_now_us(void);
 
 #endif

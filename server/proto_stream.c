@@ -171,8 +171,21 @@ static int handle_message(srv_daemon *d, srv_session *s)
         return queue_reply(s, buf, n);
     default: {
         const drv_source *src = srv_pipeline_source(d->pipe);
-        if (!src->ops->control)
-            return reply_error(d, s, "unsupported", "this source takes no controls", &c);
+        unsigned accepted = srv_pipeline_source_controls(src);
+        if (!(accepted & SRV_CTL_BIT(c.kind))) {
+            char why[160], list[64] = "";
+            static const int offered[] = {SRV_CTL_PAUSE, SRV_CTL_RESUME, SRV_CTL_SEEK, SRV_CTL_SPEED};
+            for (size_t i = 0; i < sizeof offered / sizeof offered[0]; i++)
+                if (accepted & SRV_CTL_BIT(offered[i]))
+                    snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s",
+                             list[0] ? ", " : "", srv_control_name(offered[i]));
+            if (list[0])
+                snprintf(why, sizeof why, "the %s source takes no '%s' (it takes: %s)",
+                         src->ops->scheme, c.type, list);
+            else
+                snprintf(why, sizeof why, "the %s source takes no controls", src->ops->scheme);
+            return reply_error(d, s, "unsupported", why, &c);
+        }
         if (srv_pipeline_control(d->pipe, s->tag, &c))
             return reply_error(d, s, "busy", "too many controls pending; try again", &c);
         return 0; /* the reply comes back from the source thread */

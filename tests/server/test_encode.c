@@ -1,6 +1,7 @@
 /* test_encode.c - the binary messages of protocol 1 decoded exactly as docs/PROTOCOL.md says:
  * topology offsets, float32 frames bit-exact, int16 frames within the stated bound, clamping,
  * padding for odd vertex counts, markers and validity, and the frame pool's reference counts. */
+#include "control.h"
 #include "encode.h"
 #include "test.h"
 
@@ -58,7 +59,11 @@ int main(void)
                            .bbox_min = {0, 0, 0}, .bbox_max = {1, 2, 3}};
     int map[3] = {2, -1, 0};
     const char *names[3] = {"C", "X", "A"};
-    srv_source_desc src = {"replay:x.csv", "replay", 60, 3, names, 1};
+    const char *lookup[3] = {"A", "cam_b", "C"}; /* b looks up cam_b, which the source lacks */
+    srv_source_desc src = {"replay:x.csv", "replay", 60, 3, names,
+                           SRV_CTL_BIT(SRV_CTL_PAUSE) | SRV_CTL_BIT(SRV_CTL_RESUME) |
+                               SRV_CTL_BIT(SRV_CTL_SPEED),
+                           lookup};
     char err[512];
     srv_gen *g = NULL;
     ASSERT_OK(srv_gen_create(&info, map, &src, 7, &g, err), err);
@@ -68,8 +73,21 @@ int main(void)
     ASSERT(strstr((char *)g->hello, "\"protocol\":1"));
     ASSERT(strstr((char *)g->hello, "\"generation\":7"));
     ASSERT(strstr((char *)g->hello, "\"topology\":\"000000001234abcd\""));
-    ASSERT(strstr((char *)g->hello, "{\"name\":\"b\",\"source\":\"b\",\"bound\":false}"));
+    ASSERT(strstr((char *)g->hello, "{\"name\":\"b\",\"source\":\"b\",\"live\":\"cam_b\",\"bound\":false}"));
+    ASSERT(strstr((char *)g->hello, "{\"name\":\"a\",\"source\":\"A\",\"live\":\"A\",\"bound\":true}"));
+    /* exactly the controls the source takes, in the documented order */
+    ASSERT(strstr((char *)g->hello, "\"controls\":[\"pause\",\"resume\",\"speed\"]"));
     ASSERT_INT_EQ(strlen((char *)g->hello), g->hello_len);
+    {
+        /* no label map (live = the marker's own label) and a source without controls */
+        srv_source_desc plain = {"openni2:", "openni2", 30, 3, names, 0, NULL};
+        srv_gen *g2 = NULL;
+        ASSERT_OK(srv_gen_create(&info, map, &plain, 8, &g2, err), err);
+        ASSERT(strstr((char *)g2->hello, "{\"name\":\"b\",\"source\":\"b\",\"live\":\"b\",\"bound\":false}"));
+        ASSERT(strstr((char *)g2->hello, "{\"name\":\"c\",\"source\":\"C\",\"live\":\"C\",\"bound\":true}"));
+        ASSERT(strstr((char *)g2->hello, "\"controls\":[]"));
+        srv_gen_unref(g2);
+    }
 
     /* the quantisation box: bbox grown by half the largest extent (3) on every side */
     for (int a = 0; a < 3; a++) {
