@@ -62,6 +62,8 @@ typedef struct oni_src {
     double speed;                /* recordings: 1 = as recorded, 0 = as fast as read, lossless */
     int speed_set;
     int playback;                /* the device is a recording (OpenNI2's OniFile driver) */
+    int paused;                  /* control "pause": the player is held in manual mode and read
+                                    does not poke it, so the recording keeps its place */
     int initialized;
     OniDeviceHandle dev;
     OniStreamHandle stream;
@@ -355,6 +357,9 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     s->count = DRV_DEPTH_NLABELS;
     s->names = (const char **)drv_depth_label_names;
     s->fps = o->mode.fps > 0 ? o->mode.fps : 30;
+    /* recordings pause and change speed; no seek: OpenNI2's seek can hang when the stream is not
+     * running. Live cameras take no controls. */
+    s->controls = o->playback ? DRV_CTL_PAUSE | DRV_CTL_SPEED : 0;
     return 0;
 }
 
@@ -430,6 +435,12 @@ static int oni_read(drv_source *s, drv_frame *fr, int timeout_ms, char *err)
     oni_src *o = s->impl;
     if (atomic_load(&o->lost))
         return drv__err(err, DRV_ELOST, "openni2 %s: device disconnected", o->uri);
+    if (o->paused) { /* waiting for a stream would let the manual-mode player release a frame */
+        int ms = timeout_ms < 0 || timeout_ms > 100 ? 100 : timeout_ms;
+        struct timespec ts = {ms / 1000, (long)(ms % 1000) * 1000000L};
+        nanosleep(&ts, NULL);
+        return DRV_ETIMEOUT;
+    }
     int idx = -1, left = timeout_ms; /* < 0: forever (ONI_TIMEOUT_FOREVER is -1) */
     OniStatus st;
     for (;;) { /* a recording played once may end during the wait: wait in slices to notice */
@@ -490,6 +501,40 @@ static int oni_read(drv_source *s, drv_frame *fr, int timeout_ms, char *err)
     return 0;
 }
 
+/* Recordings: "pause" 1 holds the player (OpenNI2's manual mode, which releases a frame only
+ * when oniWaitForAnyStream asks, and read does not ask while paused), 0 restores the speed;
+ * "speed" S (0 .. 100, as the option; 0 = every frame as fast as read) applies at once, or on
+ * resume when paused. drv_source_control passes only these two keys (s->controls). */
+static int oni_control(drv_source *s, const char *key, double value, char *err)
+{
+    char why[256];
+    oni_src *o = s->impl;
+    if (!o->playback)
+        return drv__err(err, -ENOTSUP, "openni2 %s: a live camera takes no controls", o->uri);
+    if (!strcmp(key, "pause")) {
+        if (value != 0 && value != 1)
+            return drv__err(err, -EINVAL, "openni2 %s: pause must be 0 or 1", o->uri);
+        if ((value != 0) == o->paused)
+            return 0;
+        if (set_speed(o, value != 0 ? 0 : o->speed))
+            return drv__err(err, -EIO, "openni2 %s: cannot %s the playback: %s", o->uri,
+                            value != 0 ? "pause" : "resume", oni_why(why));
+        o->paused = value != 0;
+        return 0;
+    }
+    if (!strcmp(key, "speed")) {
+        if (!(value >= 0 && value <= 100))
+            return drv__err(err, -ERANGE, "openni2 %s: speed %g outside 0 .. 100", o->uri, value);
+        if (!o->paused && set_speed(o, value))
+            return drv__err(err, -EIO, "openni2 %s: cannot set the playback speed to %g: %s",
+                            o->uri, value, oni_why(why));
+        o->speed = value;
+        return 0;
+    }
+    return drv__err(err, -ENOTSUP, "openni2 %s: no control '%s' (recordings take pause, speed)",
+                    o->uri, key);
+}
+
 static void oni_stop(drv_source *s)
 {
     oni_src *o = s->impl;
@@ -507,7 +552,7 @@ const drv_source_ops drv_openni2_ops = {
     .open = oni_open,
     .start = oni_start,
     .read = oni_read,
-    .control = NULL, /* the daemon would offer pause/resume/seek/speed for every openni2 source */
+    .control = oni_control, /* recordings only: s->controls */
     .stop = oni_stop,
     .close = oni_close,
 };

@@ -11,7 +11,11 @@
  * Recordings only: loop=0|1 (repeat, default 1; with 0 read returns DRV_EEOF after the last
  * frame, when OniFile reports ONI_DEVICE_STATE_EOF), speed=S (0 .. 100, default 1 = the recorded
  * rate, paced by the file's timestamps; 0 = every frame as fast as it is read, OpenNI2's manual
- * mode, playback speed -1); speed= on a live device is -EINVAL. No drv_source_control (yet).
+ * mode, playback speed -1); speed= on a live device is -EINVAL.
+ * Controls (drv_source_control), recordings only: "pause" 1/0 (the player is held in OpenNI2's
+ * manual mode and read returns DRV_ETIMEOUT without asking it for frames, so playback resumes
+ * where it paused) and "speed" (as the option). No "seek": OpenNI2's seek can hang when the
+ * stream is not running. A live camera takes no controls (s->controls is 0).
  * OpenNI2's player restarts its clock at each loop: no pause between the last and first frame.
  * An existing file is never overwritten: when PATH exists, the recording goes to PATH-1.oni,
  * PATH-2.oni, ... (the first free name), so a reopen after a loss starts the next file.

@@ -334,6 +334,10 @@ int main(int argc, char **argv)
             ASSERT_INT_EQ(s->state, DRV_STATE_OPEN);
         }
         ASSERT_INT_EQ(s->count, DRV_DEPTH_NLABELS);
+        /* a live camera takes no controls */
+        ASSERT_INT_EQ(s->controls, 0);
+        ASSERT_INT_EQ(drv_source_control(s, "pause", 1, err), -ENOTSUP);
+        ASSERT_INT_EQ(drv_source_control(s, "speed", 2, err), -ENOTSUP);
         ASSERT_OK(drv_source_start(s, err), err);
         float xyz[DRV_DEPTH_NLABELS * 3];
         uint8_t valid[DRV_DEPTH_NLABELS];
@@ -501,6 +505,69 @@ int main(int argc, char **argv)
                span, want_span);
         ASSERT(back >= nrec - 1 && back <= nrec);
         ASSERT(span > 0.8 * want_span && span < 1.5 * want_span + 0.05);
+        drv_source_close(s2);
+
+        /* controls of a recording: pause and speed, no seek (OpenNI2's seek can hang) */
+        ASSERT_OK(drv_source_open(pspec, &s2, err), err);
+        ASSERT_INT_EQ(s2->controls, DRV_CTL_PAUSE | DRV_CTL_SPEED);
+        ASSERT_INT_EQ(drv_source_control(s2, "seek", 0, err), -ENOTSUP);
+        ASSERT_INT_EQ(drv_source_control(s2, "loop", 1, err), -ENOTSUP);
+        ASSERT_INT_EQ(drv_source_control(s2, "speed", 101, err), -ERANGE);
+        ASSERT_INT_EQ(drv_source_control(s2, "pause", 2, err), -EINVAL);
+        ASSERT_OK(drv_source_start(s2, err), err);
+        /* a pause longer than the rest of the recording holds its place: after the resume the
+         * frames continue to the end (a player left running would have reached it unread, and
+         * OpenNI2 keeps only the newest frame) */
+        back = 0;
+        int during = 0;
+        for (int it = 0; it < 100; it++) {
+            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
+            r = drv_source_read(s2, &fr, 500, err);
+            if (r == DRV_ETIMEOUT)
+                continue;
+            if (r == DRV_EEOF)
+                break;
+            ASSERT_OK(r, err);
+            if (++back == 4) {
+                ASSERT_OK(drv_source_control(s2, "pause", 1, err), err);
+                uint64_t t_pause = now_us();
+                while (now_us() - t_pause < (uint64_t)(1e6 * nrec / 30.0) + 300000) {
+                    r = drv_source_read(s2, &fr, 50, err);
+                    ASSERT(r == DRV_ETIMEOUT || r == 0); /* one frame may be on its way */
+                    during += r == 0;
+                }
+                ASSERT_OK(drv_source_control(s2, "pause", 0, err), err);
+            }
+        }
+        printf("pause: %d of %d frames played around a %.2f s pause (%d while paused)\n", back + during,
+               nrec, nrec / 30.0 + 0.3, during);
+        ASSERT_INT_EQ(r, DRV_EEOF);
+        ASSERT(during <= 1);
+        ASSERT(back + during >= nrec - 2);
+        drv_source_close(s2);
+        /* speed 3 (set on the running source) plays the recording in about a third of its time */
+        ASSERT_OK(drv_source_open(pspec, &s2, err), err);
+        ASSERT_OK(drv_source_start(s2, err), err);
+        ASSERT_OK(drv_source_control(s2, "speed", 3, err), err);
+        back = 0;
+        for (int it = 0; it < 100; it++) {
+            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
+            r = drv_source_read(s2, &fr, 500, err);
+            if (r == DRV_ETIMEOUT)
+                continue;
+            if (r == DRV_EEOF)
+                break;
+            ASSERT_OK(r, err);
+            if (!back)
+                first = fr.t_capture_us;
+            last = fr.t_capture_us;
+            back++;
+        }
+        span = (double)(last - first) / 1e6;
+        printf("speed 3: %d of %d frames in %.3f s (recorded: %.3f s)\n", back, nrec, span, want_span);
+        ASSERT_INT_EQ(r, DRV_EEOF);
+        ASSERT(back >= 2);
+        ASSERT(span < 0.6 * want_span);
         drv_source_close(s2);
 
         /* ... and by default in a loop; speed=0 gives every frame as fast as it is read */
