@@ -78,6 +78,14 @@ static void run_until(struct lws_context *ctx, wsc *c, uint64_t frames, int text
     }
 }
 
+static void expect_str(const char *got, const char *want)
+{
+    if (strcmp(got, want)) {
+        fprintf(stderr, "expected \"%s\", got \"%s\"\n", want, got);
+        exit(1);
+    }
+}
+
 static const char *last_text(const wsc *c)
 {
     return c->ntexts ? c->texts[c->ntexts - 1] : "";
@@ -160,6 +168,11 @@ static void scenario_stream(void)
     ASSERT_INT_EQ(cJSON_GetObjectItem(m, "faces")->valueint, A->nf);
     ASSERT_INT_EQ(cJSON_GetArraySize(cJSON_GetObjectItem(h, "markers")), A->nm);
     ASSERT_INT_EQ(cJSON_GetObjectItem(h, "generation")->valueint, 1);
+    /* a replay source takes all four controls, listed in this order */
+    char *ctl = cJSON_PrintUnformatted(cJSON_GetObjectItem(cJSON_GetObjectItem(h, "source"), "controls"));
+    ASSERT(ctl);
+    expect_str(ctl, "[\"pause\",\"resume\",\"seek\",\"speed\"]");
+    cJSON_free(ctl);
     cJSON_Delete(h);
     /* the topology: faces index vertices, the rest pose lies in the quantisation box */
     ASSERT_INT_EQ(A->topos, 1);
@@ -708,6 +721,34 @@ static void write_renamed(char *map, size_t cap)
     mdl_model_destroy(m);
 }
 
+/* Checks the hello's markers: each bound one's live label is prefix + its source label; each
+ * unbound one is allowed only when !all_bound and must name a label the source lacks. Returns the
+ * number of unbound markers. */
+static int expect_live_labels(const char *hello, const char *prefix, int all_bound)
+{
+    cJSON *h = cJSON_Parse(hello);
+    ASSERT(h);
+    const cJSON *mk = cJSON_GetObjectItem(h, "markers");
+    ASSERT(cJSON_GetArraySize(mk) > 0);
+    int unbound = 0;
+    for (const cJSON *m = mk->child; m; m = m->next) {
+        const cJSON *src = cJSON_GetObjectItem(m, "source"), *live = cJSON_GetObjectItem(m, "live"),
+                    *bound = cJSON_GetObjectItem(m, "bound");
+        ASSERT(cJSON_IsString(src) && cJSON_IsString(live) && cJSON_IsBool(bound));
+        char want[300];
+        snprintf(want, sizeof want, "%s%s", prefix, src->valuestring);
+        if (cJSON_IsTrue(bound)) {
+            expect_str(live->valuestring, want);
+        } else {
+            ASSERT(!all_bound);
+            ASSERT(strcmp(live->valuestring, want) != 0);
+            unbound++;
+        }
+    }
+    cJSON_Delete(h);
+    return unbound;
+}
+
 static void scenario_labels(void)
 {
     char map[2048], model[1200], source[1200], log[1200], out[4096];
@@ -748,15 +789,44 @@ static void scenario_labels(void)
     struct lws_context *ctx = wsc_context();
     wsc *a = wsc_connect(ctx, H.port, NULL, 0);
     run_until(ctx, a, 10, 0, 15000);
+    /* the hello names the live label each marker is bound to: cam_<its own label> */
+    expect_live_labels(a->hello, "cam_", 1);
     kill(H.pid, SIGHUP);
     want wh = {a, 0, 0, 2, 0, -1};
     ASSERT(wsc_run(ctx, 20000, enough, &wh));
     run_until(ctx, a, a->total_frames + 5, 0, 5000);
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_total"), 1);
+    expect_live_labels(a->hello, "cam_", 1); /* the reloaded generation's hello */
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
     lws_context_destroy(ctx);
     wsc_free(a);
-    printf("labels: --labels binds the renamed source; the map holds over a SIGHUP reload\n");
+    printf("labels: --labels binds the renamed source (the hello names the live labels); the map "
+           "holds over a SIGHUP reload\n");
+
+    /* a map that leaves one label unbound: its marker says so and names the label it looked for */
+    char partial[2048];
+    snprintf(partial, sizeof partial, "%s", map);
+    char *last = strrchr(partial, '=');
+    ASSERT(last);
+    char missing_label[256];
+    snprintf(missing_label, sizeof missing_label, "gone_%s", last + 1);
+    snprintf(last + 1, sizeof partial - (size_t)(last + 1 - partial), "%s", missing_label);
+    const char *pargs[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0",
+                           "--labels", partial, NULL};
+    harness_start(&H, meshsteerd, pargs);
+    ctx = wsc_context();
+    a = wsc_connect(ctx, H.port, NULL, 0);
+    want wp = {a, 0, 0, 1, 0, -1}; /* the hello (frames may wait for the unbound marker) */
+    ASSERT(wsc_run(ctx, 15000, enough, &wp));
+    int unbound = expect_live_labels(a->hello, "cam_", 0);
+    ASSERT(unbound >= 1);
+    ASSERT(strstr(a->hello, missing_label));
+    ASSERT(harness_log_has(&H, "count as missing"));
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(a);
+    printf("labels: %d marker(s) left unbound by the map are reported with bound=false and the "
+           "label looked for\n", unbound);
 
     /* the same map from the config file */
     char conf[1200], ctext[8192];
