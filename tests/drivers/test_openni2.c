@@ -25,7 +25,11 @@
 #include "depth/openni2.h"
 #include "model.h"
 #include "kinect_frames.h"
+#include "server/wsclient.h"
 #include "test.h"
+
+#include <cjson/cJSON.h>
+#include <libwebsockets.h>
 
 #include <dlfcn.h>
 #include <errno.h>
@@ -139,6 +143,70 @@ static void show_log(void)
         perror("system");
 }
 
+typedef struct ws_wait {
+    const wsc *c;
+    int texts; /* replies to wait for, after the hello */
+} ws_wait;
+
+static int wsc_has(void *ud)
+{
+    const ws_wait *w = ud;
+    return w->c->failed || w->c->closed || (w->c->hellos > 0 && w->c->ntexts >= w->texts);
+}
+
+/* A WebSocket client of the daemon on port: the hello's source.controls must print as
+ * want_controls; `refused` must get the error reply "unsupported" (naming the request and its
+ * id), `accepted` (may be NULL) an ack. */
+static void check_controls(int port, const char *want_controls, const char *refused,
+                           const char *refused_type, const char *accepted)
+{
+    char body[8192];
+    for (int t = 0; t < 100 && http_get(port, "/healthz", body, sizeof body) != 0; t++)
+        usleep(100 * 1000);
+    struct lws_context *ctx = wsc_context();
+    ASSERT(ctx);
+    wsc *c = wsc_connect(ctx, port, NULL, 0);
+    ASSERT(c);
+    ws_wait w = {c, 0};
+    ASSERT(wsc_run(ctx, 10000, wsc_has, &w) && c->hellos > 0);
+    cJSON *h = cJSON_Parse(c->hello);
+    ASSERT(h);
+    const cJSON *src = cJSON_GetObjectItem(h, "source");
+    ASSERT(cJSON_IsString(cJSON_GetObjectItem(src, "scheme")) &&
+           !strcmp(cJSON_GetObjectItem(src, "scheme")->valuestring, "openni2"));
+    char *ctl = cJSON_PrintUnformatted(cJSON_GetObjectItem(src, "controls"));
+    ASSERT(ctl);
+    printf("daemon: hello source.controls %s\n", ctl);
+    if (strcmp(ctl, want_controls)) {
+        fprintf(stderr, "expected controls %s, got %s\n", want_controls, ctl);
+        exit(1);
+    }
+    cJSON_free(ctl);
+    cJSON_Delete(h);
+    wsc_send(c, refused);
+    w.texts = 1;
+    ASSERT(wsc_run(ctx, 10000, wsc_has, &w) && c->ntexts >= 1);
+    cJSON *r = cJSON_Parse(c->texts[0]);
+    ASSERT(r);
+    printf("daemon: %s -> %s\n", refused, c->texts[0]);
+    ASSERT(!strcmp(cJSON_GetObjectItem(r, "type")->valuestring, "error"));
+    ASSERT(!strcmp(cJSON_GetObjectItem(r, "code")->valuestring, "unsupported"));
+    ASSERT(!strcmp(cJSON_GetObjectItem(r, "request")->valuestring, refused_type));
+    ASSERT_INT_EQ(cJSON_GetObjectItem(r, "id")->valueint, 5);
+    cJSON_Delete(r);
+    if (accepted) {
+        wsc_send(c, accepted);
+        w.texts = 2;
+        ASSERT(wsc_run(ctx, 10000, wsc_has, &w) && c->ntexts >= 2);
+        printf("daemon: %s -> %s\n", accepted, c->texts[1]);
+        r = cJSON_Parse(c->texts[1]);
+        ASSERT(r && !strcmp(cJSON_GetObjectItem(r, "type")->valuestring, "ack"));
+        cJSON_Delete(r);
+    }
+    lws_context_destroy(ctx);
+    wsc_free(c);
+}
+
 static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
 {
     /* a model of the samba dancer driven by the six depth labels */
@@ -169,6 +237,8 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
              "openni2:meshsteer-testcam:%s?vanish=20&fps=30#width=640&height=480&record=%s", dump, rec);
     int port = 20000 + (int)(getpid() % 20000);
     pid_t pid = start_daemon(meshsteerd, model, spec, port);
+    /* a live camera offers no controls and refuses them */
+    check_controls(port, "[]", "{\"type\":\"pause\",\"id\":5}", "pause", NULL);
     char body[8192];
     int seen_lost = 0, back = 0;
     long frames_at_loss = -1, last = -1;
@@ -222,6 +292,10 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
     ASSERT(stat(rec1, &st1) == 0 && st1.st_size > 0);
     snprintf(spec, sizeof spec, "openni2:%s#loop=0", rec);
     pid = start_daemon(meshsteerd, model, spec, port + 1);
+    /* a recording offers pause, resume and speed; seek is refused */
+    check_controls(port + 1, "[\"pause\",\"resume\",\"speed\"]",
+                   "{\"type\":\"seek\",\"frame\":0,\"id\":5}", "seek",
+                   "{\"type\":\"speed\",\"speed\":2}");
     int ended = 0;
     last = -1;
     for (int t = 0; t < 100 && !ended; t++) { /* up to 10 s */
