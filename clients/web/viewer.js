@@ -1,6 +1,7 @@
 // viewer.js - the meshsteer browser viewer: connects to the daemon's /stream (docs/PROTOCOL.md),
 // shows the synthesised mesh (lit, orbit camera), the incoming markers as dots, optional colouring
-// by model part, and an overlay with fps, end-to-end latency and dropped frames. It reconnects by
+// by model part, and an overlay with fps, end-to-end latency, dropped frames and how many markers
+// are bound (its tooltip: which live label drives each). It reconnects by
 // itself (the camera is kept) and exposes its counters as window.meshsteer for tests.
 import * as THREE from './node_modules/three/build/three.module.js';
 import { Orbit } from './orbit.js';
@@ -16,6 +17,8 @@ const stats = {
   latencyMs: NaN,     // capture -> on screen, smoothed; NaN until the clock offset is known
   fps: 0, generation: 0, encoding: params.get('encoding') === 'int16' ? 'int16' : 'float32',
   nv: 0, nf: 0, nm: 0, lastSeq: 0, model: '',
+  bound: 0,           // model markers bound to a live label (hello markers[].bound)
+  controls: [],       // the source controls the hello offers (source.controls)
 };
 window.meshsteer = stats;
 
@@ -157,7 +160,14 @@ function onText(msg) {
     stats.generation = msg.generation;
     stats.model = msg.model.name;
     stats.nm = msg.markers.length;
+    stats.bound = msg.markers.filter(m => m.bound).length;
+    stats.controls = Array.isArray(msg.source && msg.source.controls) ? msg.source.controls : [];
     document.getElementById('title').textContent = `meshsteer – ${msg.model.name}`;
+    // which live marker drives each model marker (live: protocol 1 servers that know label maps)
+    const mk = document.getElementById('o-markers');
+    mk.textContent = `${stats.bound} of ${stats.nm} bound`;
+    mk.title = msg.markers.map(m => `${m.name} ← ${m.live ?? m.source}${m.bound ? '' : ' (not in the source)'}`)
+      .join('\n');
     topo = null; // the topology follows
   } else if (msg.type === 'pong') {
     const now = performance.now(), rtt = now - pingSent;

@@ -64,6 +64,11 @@ try {
   check(s.latencyMs > 0 && s.latencyMs < 5000, `latency ${s.latencyMs.toFixed(1)} ms`);
   check(s.dropped + s.rendered >= s.frames - 2, `dropped ${s.dropped} counted`);
   check(s.errors === 0, `no errors ${s.lastError}`);
+  check(s.bound === s.nm, `${s.bound} of ${s.nm} markers bound`);
+  check(JSON.stringify(s.controls) === '["pause","resume","seek","speed"]',
+        `the replay source's controls ${JSON.stringify(s.controls)}`);
+  const tip = await page.evaluate(() => document.getElementById('o-markers').title);
+  check(tip.split('\n').length === s.nm && tip.includes(' ← '), 'marker bindings in the overlay');
   // the canvas is not blank: sample the drawn pixels
   const px = await page.evaluate(() => {
     const src = document.querySelector('#view canvas');
