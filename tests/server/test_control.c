@@ -90,6 +90,12 @@ int main(void)
     j = cJSON_ParseWithLength(buf, n);
     ASSERT(j && !strcmp(cJSON_GetObjectItem(j, "type")->valuestring, "error"));
     cJSON_Delete(j);
+    /* kind names and kind sets, as the hello and the unsupported reply use them */
+    ASSERT(!strcmp(srv_control_name(SRV_CTL_PAUSE), "pause"));
+    ASSERT(!strcmp(srv_control_name(SRV_CTL_SEEK), "seek"));
+    ASSERT(srv_control_name(0) == NULL);
+    unsigned set = SRV_CTL_BIT(SRV_CTL_PAUSE) | SRV_CTL_BIT(SRV_CTL_SPEED);
+    ASSERT((set & SRV_CTL_BIT(SRV_CTL_SEEK)) == 0 && (set & SRV_CTL_BIT(SRV_CTL_SPEED)) != 0);
     printf("ok\n");
     return 0;
 }
