@@ -2,7 +2,7 @@
  * the daemon on an ephemeral port, and WebSocket clients that check the protocol as documented.
  *
  * Usage: test_daemon MESHSTEERD MAKE_MODEL SCENARIO, SCENARIO one of
- *   stream   hello, topology, frames (increasing seq, plausible timestamps), both encodings within
+ *   stream   hello (a replay source offers all four controls), topology, frames (increasing seq, plausible timestamps), both encodings within
  *            the int16 bound, controls (good and bad, error replies), an oversized message closing
  *            only its connection, /healthz, /metrics, SIGHUP with a corrupt model (keeps serving),
  *            SIGHUP with a good one (new hello), SIGTERM (clients closed with 1001, exit 0)
@@ -15,8 +15,9 @@
  *            override them, --check-config accepts it and names FILE:LINE for bad ones
  *   labels   a replay source whose marker labels are renamed (cam_<name>): refused without a label
  *            map (the error mentions --labels), streams with --labels <name>=cam_<name>,... (an
- *            unused entry logged as a warning), and keeps the map over a SIGHUP reload; the same
- *            map from a config file's `labels =`
+ *            unused entry logged as a warning; the hello's markers[].live names cam_<name>), and
+ *            keeps the map over a SIGHUP reload; a map leaving one marker unbound (bound false, live
+ *            the label looked for); the same map from a config file's `labels =`
  *   horse    real data: a model trained on shared/data/meshes/horse-gallop (meshsteer train)
  *            replaying its own rig markers at 60 Hz (meshsteer markers); hello, topology and
  *            frames of the horse's 8,431 vertices, each frame close to the ground-truth mesh of
