@@ -101,6 +101,8 @@ typedef struct drv__geodesic {
     int *bt;          /*        and the cells they reach (the cell itself when none) */
     float *h;      /* n: height of a person cell above the source along `up` */
     float *hmax;   /* n: highest h along the cell's shortest path from the source (first pass) */
+    float *dist0;  /* n: the first pass's distances from the source alone, */
+    int *parent0;  /*    and its shortest-path tree (anchors are taken on it) */
     int hn;        /* cells queued */
 } drv__geodesic;
 
