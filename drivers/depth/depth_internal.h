@@ -68,7 +68,8 @@ struct drv__extremum {
     int cell;
     float geodesic;   /* metres from the nearest earlier source when found */
     float tip[3];     /* mean of the cells within tip_radius of it */
-    float anchor[3];  /* the point half-way back along its shortest path (limb root side) */
+    float anchor[3];  /* a point on the limb, ANCHOR_BACK back from the tip along its path
+                         from the source (geodesic.c): tells the side when tips cross */
     int border;       /* within 2.5% of the image border (likely a cut, not an extremity): 1 at the
                          top or a side, 2 at the bottom only (a foot standing below the view) */
     int loop;         /* 0: a geodesic extremum; +1 / -1: a hand estimated from an arm loop on the
@@ -101,6 +102,8 @@ typedef struct drv__geodesic {
     int *bt;          /*        and the cells they reach (the cell itself when none) */
     float *h;      /* n: height of a person cell above the source along `up` */
     float *hmax;   /* n: highest h along the cell's shortest path from the source (first pass) */
+    float *dist0;  /* n: the first pass's distances from the source alone, */
+    int *parent0;  /*    and its shortest-path tree (anchors are taken on it) */
     int hn;        /* cells queued */
 } drv__geodesic;
 

@@ -16,8 +16,13 @@
  * The first pass also records, per cell, the highest point of its shortest path from the source
  * (along the body's up axis): a hand's path climbs to the shoulder, a foot's does not.
  * Per extremum we also keep the mean of the cells within tip_radius (a less noisy marker than the
- * single farthest cell) and an anchor: the point half-way back along its shortest path, which lies
- * on the limb near its root (shoulder or hip side) and tells left from right when limbs cross.
+ * single farthest cell) and an anchor, which tells left from right when the tips cross: the point
+ * ANCHOR_BACK back from the tip (at most half-way) along its shortest path from the centroid in the
+ * first pass. Not along its path from the nearest earlier extremum: the second foot's path to the
+ * first one crosses to the other leg at the knees or the dress hem, which put both feet's anchors
+ * on one leg. Not half-way either: both legs' paths from the centroid join under a dress, so
+ * half-way lies near the body's midline; the distal segment (shank, forearm) stays on its side
+ * when the person is turned and one leg steps forward (yaw -20: foot side 0.75 -> 0.89).
  *
  * Two departures for occlusion (not in the papers; measured on samba with `meshsteer depth-eval`):
  * - Bridges: a forearm held across the chest cuts the torso's surface in two in the image, and
@@ -43,6 +48,9 @@
 
 /* Bridges across an occluder span at most this much of the image (metres at the person). */
 #define BRIDGE 0.15f
+/* The anchor lies this far back from the tip along the path from the centroid (or half-way when
+ * the path is shorter): inside the limb's distal segment (a forearm is ~0.27 m, a shank ~0.4 m). */
+#define ANCHOR_BACK 0.3f
 
 int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *err)
 {
@@ -75,8 +83,10 @@ int drv__geodesic_init(drv__geodesic *ge, const drv_depth_opts *o, int n, char *
     ge->bt = malloc((size_t)n * 2 * sizeof *ge->bt);
     ge->h = malloc((size_t)n * sizeof *ge->h);
     ge->hmax = malloc((size_t)n * sizeof *ge->hmax);
+    ge->dist0 = malloc((size_t)n * sizeof *ge->dist0);
+    ge->parent0 = malloc((size_t)n * sizeof *ge->parent0);
     if (!ge->dist || !ge->parent || !ge->next || !ge->prev || !ge->slot || !ge->bucket ||
-        !ge->full || !ge->w || !ge->bw || !ge->bt || !ge->h || !ge->hmax) {
+        !ge->full || !ge->w || !ge->bw || !ge->bt || !ge->h || !ge->hmax || !ge->dist0 || !ge->parent0) {
         drv__geodesic_fini(ge);
         if (err)
             snprintf(err, DRV_ERR_LEN, "depth: out of memory for the geodesic graph (%d cells)", n);
@@ -107,6 +117,8 @@ void drv__geodesic_fini(drv__geodesic *ge)
     free(ge->bt);
     free(ge->h);
     free(ge->hmax);
+    free(ge->dist0);
+    free(ge->parent0);
     memset(ge, 0, sizeof *ge);
 }
 
@@ -361,6 +373,11 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
     queue_push(ge, source);
     edges(ge, g, o);
     run(ge, g, 0, NULL, NULL, 1);
+    for (int k = 0; k < g->ncells; k++) {
+        int c = g->cells[k];
+        ge->dist0[c] = ge->dist[c];
+        ge->parent0[c] = ge->parent[c];
+    }
     int nex = 0;
     while (nex < max) {
         int e = -1;
@@ -383,11 +400,13 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         int bx = g->gw / 40 + 1, by = g->gh / 40 + 1; /* 2.5% of the image, at least a cell */
         x->border = gx < bx || gy < by || gx >= g->gw - bx ? 1 : gy >= g->gh - by ? 2 : 0;
         int a = e, limb = e, guard = g->ncells;
-        while (ge->parent[a] >= 0 && ge->dist[a] > 0.5f * de && guard-- > 0) {
-            a = ge->parent[a];
-            if (ge->dist[a] > de - LIMB_BACK)
-                limb = a;
-        }
+        while (ge->parent[a] >= 0 && ge->dist[ge->parent[a]] > de - LIMB_BACK && guard-- > 0)
+            limb = a = ge->parent[a];
+        /* the anchor: on the path from the centroid (first pass), not from the nearest earlier
+           extremum (the second foot's path to the first one crosses to the other leg) */
+        const float d0 = ge->dist0[e], dstop = fmaxf(0.5f * d0, d0 - ANCHOR_BACK);
+        for (a = e, guard = g->ncells; ge->parent0[a] >= 0 && ge->dist0[a] > dstop && guard-- > 0;)
+            a = ge->parent0[a];
         memcpy(x->anchor, g->P + 3 * a, sizeof x->anchor);
         hidden_end(g, e, limb, x);
         double tip[3] = {0, 0, 0};

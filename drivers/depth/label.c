@@ -1,6 +1,6 @@
 /* label.c - which geodesic extremum is the head, which a hand or foot, and which side.
  *
- * Each extremum e (tip position t, anchor a half-way back along its geodesic path, geodesic length
+ * Each extremum e (tip position t, anchor a on its limb (geodesic.c), geodesic length
  * g) is described in the body frame at the centroid c: height h = (t - c).up, lateral offsets
  * l = (t - c).right and l_a = (a - c).right. `right` is the camera's +X, which is the left side of a
  * person facing the camera. Costs (metres scaled to "units"; lower is better):
