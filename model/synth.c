@@ -386,6 +386,23 @@ void mdl_synth_reset(mdl_synth *s)
     s->have_body = 0;
 }
 
+/* One vertex j3 / 3 of a part's local shape, mean + sum_a lam_a V_a (eq. 6), in float. */
+static inline __attribute__((always_inline)) void local_vertex(const float *mean, const float *V,
+                                                              const float *lam, int k, int n3,
+                                                              int j3, float *x, float *y, float *z)
+{
+    float vx = mean[j3], vy = mean[j3 + 1], vz = mean[j3 + 2];
+    for (int a = 0; a < k; a++) {
+        const float *va = V + (size_t)a * n3 + j3;
+        vx += va[0] * lam[a];
+        vy += va[1] * lam[a];
+        vz += va[2] * lam[a];
+    }
+    *x = vx;
+    *y = vy;
+    *z = vz;
+}
+
 /* The same for only the vertices the alignment and shape steps read: the overlap vertices, into
  * the compact sloc (one entry per sov entry), and the marker vertices, into mloc. The full local
  * shape is needed only by the final blend. Also the moments of the overlap vertices' local
@@ -403,13 +420,8 @@ static inline __attribute__((always_inline)) void update_local_needed(mdl_synth 
     double sy0 = 0, sy1 = 0, sy2 = 0, syy = 0;
     for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
         int j3 = 3 * m->sov[e];
-        float x = mean[j3], y = mean[j3 + 1], z = mean[j3 + 2];
-        for (int a = 0; a < k; a++) {
-            const float *va = V + (size_t)a * n3 + j3;
-            x += va[0] * lam[a];
-            y += va[1] * lam[a];
-            z += va[2] * lam[a];
-        }
+        float x, y, z;
+        local_vertex(mean, V, lam, k, n3, j3, &x, &y, &z);
         double *o = s->sloc + 4 * (size_t)e;
         o[0] = x;
         o[1] = y;
@@ -428,13 +440,8 @@ static inline __attribute__((always_inline)) void update_local_needed(mdl_synth 
     ym[3] = syy;
     for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++) {
         int j3 = 3 * s->imk_local[e];
-        float x = mean[j3], y = mean[j3 + 1], z = mean[j3 + 2];
-        for (int a = 0; a < k; a++) {
-            const float *va = V + (size_t)a * n3 + j3;
-            x += va[0] * lam[a];
-            y += va[1] * lam[a];
-            z += va[2] * lam[a];
-        }
+        float x, y, z;
+        local_vertex(mean, V, lam, k, n3, j3, &x, &y, &z);
         double *o = s->mloc + 3 * (size_t)e;
         o[0] = x;
         o[1] = y;
