@@ -11,9 +11,10 @@
  * person's centroid. A hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is
  * placed at the estimated hidden end. A hand from an arm loop (segment.c) is a point on the visible
  * surface where the forearm meets the hip; the hand itself lies against the side or back of the
- * hip, so it is moved LOOP_BEHIND along the viewing ray: about half a hip's depth (~0.2 m), the
- * more so the more the person is turned (samba, hands on the hips/back: hand within 10 cm at
- * yaw +20 0.83 -> 0.98, facing 0.91 -> 0.93). */
+ * hip, so it is moved LOOP_BEHIND = 8 cm back along the viewing ray, a little less than half a
+ * hip's depth (~0.2 m). A turned person's hand lies farther behind, which this constant does not
+ * model (samba, hands on the hips/back: hand within 10 cm at yaw +20 0.83 -> 0.98, facing
+ * 0.91 -> 0.93). */
 #include "depth_internal.h"
 
 #include <errno.h>
