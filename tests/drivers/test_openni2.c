@@ -108,6 +108,22 @@ static long json_long(const char *s, const char *key)
     return p ? strtol(p + strlen(k), NULL, 10) : -1;
 }
 
+/* Reads up to `want` frames from s in at most `tries` reads of 500 ms (timeouts retried; any
+ * other error fails the test); returns how many came. */
+static int read_frames(drv_source *s, int want, int tries, float *xyz, uint8_t *valid, char *err)
+{
+    int got = 0;
+    for (int it = 0; it < tries && got < want; it++) {
+        drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
+        int r = drv_source_read(s, &fr, 500, err);
+        if (r == DRV_ETIMEOUT)
+            continue;
+        ASSERT_OK(r, err);
+        got++;
+    }
+    return got;
+}
+
 static char daemon_log[4400];
 
 /* meshsteerd with a model and a source, on 127.0.0.1:port, its output to daemon_log */
@@ -459,15 +475,7 @@ int main(int argc, char **argv)
         ASSERT_OK(drv_source_start(s2, err), err);
         float xyz[DRV_DEPTH_NLABELS * 3];
         uint8_t valid[DRV_DEPTH_NLABELS];
-        int got = 0;
-        for (int it = 0; it < 100 && got < 15; it++) {
-            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
-            int r = drv_source_read(s2, &fr, 500, err);
-            if (r == DRV_ETIMEOUT)
-                continue;
-            ASSERT_OK(r, err);
-            got++;
-        }
+        int got = read_frames(s2, 15, 100, xyz, valid, err);
         drv_source_close(s2);
         struct stat st;
         ASSERT(stat(oni, &st) == 0 && st.st_size > 640 * 480);
@@ -677,14 +685,7 @@ int main(int argc, char **argv)
                  "openni2:meshsteer-testcam:%s?vanish=100&fps=30#width=640&height=480&record=%s", dir, oni);
         ASSERT_OK(drv_source_open(rspec, &s2, err), err);
         ASSERT_OK(drv_source_start(s2, err), err);
-        for (int it = 0, n1 = 0; it < 40 && n1 < 3; it++) {
-            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
-            int r = drv_source_read(s2, &fr, 500, err);
-            if (r == DRV_ETIMEOUT)
-                continue;
-            ASSERT_OK(r, err);
-            n1++;
-        }
+        ASSERT_INT_EQ(read_frames(s2, 3, 40, xyz, valid, err), 3);
         drv_source_close(s2);
         ASSERT(stat(oni, &st1) == 0);
         ASSERT_INT_EQ((long)st1.st_size, (long)st0.st_size);

@@ -79,6 +79,34 @@ static void run_until(struct lws_context *ctx, wsc *c, uint64_t frames, int text
     }
 }
 
+/* Frames received by A (float32) and B (int16) with the same sequence number decode to the same
+ * mesh within the int16 bound of PROTOCOL.md; returns how many were compared, *worst the largest
+ * error as a fraction of the bound. */
+static int compare_encodings(const wsc *A, const wsc *B, double *worst)
+{
+    int compared = 0;
+    for (int i = 0; i < B->nframes; i++) {
+        const wsc_frame *q = &B->frames[i];
+        if (q->encoding != 1)
+            continue;
+        for (int j = 0; j < A->nframes; j++) {
+            const wsc_frame *p = &A->frames[j];
+            if (p->seq != q->seq)
+                continue;
+            ASSERT(!(q->flags & 2)); /* nothing clamped on these motions */
+            for (int k = 0; k < A->nv * 3; k++) {
+                int a = k % 3;
+                double bound = (B->qmax[a] - B->qmin[a]) / 131070.0 * 1.0001 + 1e-6;
+                double d = fabs((double)p->V[k] - (double)q->V[k]);
+                *worst = d / bound > *worst ? d / bound : *worst;
+                ASSERT_NEAR_I(q->V[k], p->V[k], bound, k);
+            }
+            compared++;
+        }
+    }
+    return compared;
+}
+
 static void expect_str(const char *got, const char *want)
 {
     if (strcmp(got, want)) {
@@ -201,27 +229,8 @@ static void scenario_stream(void)
     ASSERT_NEAR(rate, 30, 3);
 
     /* both encodings decode to the same mesh within the stated bound */
-    int compared = 0;
     double worst = 0;
-    for (int i = 0; i < B->nframes; i++) {
-        const wsc_frame *q = &B->frames[i];
-        if (q->encoding != 1)
-            continue;
-        for (int j = 0; j < A->nframes; j++) {
-            const wsc_frame *p = &A->frames[j];
-            if (p->seq != q->seq)
-                continue;
-            ASSERT(!(q->flags & 2)); /* nothing clamped on this motion */
-            for (int k = 0; k < A->nv * 3; k++) {
-                int a = k % 3;
-                double bound = (B->qmax[a] - B->qmin[a]) / 131070.0 * 1.0001 + 1e-6;
-                double d = fabs((double)p->V[k] - (double)q->V[k]);
-                worst = d / bound > worst ? d / bound : worst;
-                ASSERT_NEAR_I(q->V[k], p->V[k], bound, k);
-            }
-            compared++;
-        }
-    }
+    int compared = compare_encodings(A, B, &worst);
     printf("encodings: %d frames compared, worst error %.3f of the bound\n", compared, worst);
     ASSERT(compared >= 30);
 
@@ -1008,27 +1017,8 @@ static void scenario_horse(const char *meshsteer)
     ASSERT(worst_mean < 0.03 * diag);         /* every frame is the right pose of the horse */
 
     /* both encodings decode to the same mesh within the stated bound */
-    int compared = 0;
     double worst = 0;
-    for (int i = 0; i < B->nframes; i++) {
-        const wsc_frame *q = &B->frames[i];
-        if (q->encoding != 1)
-            continue;
-        for (int j = 0; j < A->nframes; j++) {
-            const wsc_frame *p = &A->frames[j];
-            if (p->seq != q->seq)
-                continue;
-            ASSERT(!(q->flags & 2));
-            for (int k = 0; k < A->nv * 3; k++) {
-                int a = k % 3;
-                double bound = (B->qmax[a] - B->qmin[a]) / 131070.0 * 1.0001 + 1e-6;
-                double d = fabs((double)p->V[k] - (double)q->V[k]);
-                worst = d / bound > worst ? d / bound : worst;
-                ASSERT_NEAR_I(q->V[k], p->V[k], bound, k);
-            }
-            compared++;
-        }
-    }
+    int compared = compare_encodings(A, B, &worst);
     printf("horse: encodings agree on %d frames, worst error %.3f of the bound\n", compared, worst);
     ASSERT(compared >= 60);
 
