@@ -130,9 +130,16 @@ function connect() {
     bestRtt = Infinity;
     setStatus('connected');
     if (stats.encoding !== 'float32') send({ type: 'encoding', encoding: stats.encoding });
+    // The offset is only as good as the shortest round trip seen (its error is at most rtt/2), and
+    // the first pings after a connect are slow (the page is still busy): a burst of eight pings,
+    // 100 ms apart, then one every 2 s.
     const ping = () => { pingSent = performance.now(); send({ type: 'ping' }); };
+    let burst = 0;
     ping();
-    pingTimer = setInterval(ping, 2000);
+    pingTimer = setInterval(() => {
+      ping();
+      if (++burst === 8) { clearInterval(pingTimer); pingTimer = setInterval(ping, 2000); }
+    }, 100);
   };
   ws.onclose = () => {
     stats.connected = false;
