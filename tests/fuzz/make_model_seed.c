@@ -1,6 +1,6 @@
 /* make_model_seed.c - writes a small model (the test tube of tests/model/tube.h) as the seed of
  * fuzz_model, so that the seed always matches the current file version. Usage: make_model_seed OUT */
-#include "../model/tube.h"
+#include "model/tube.h"
 #include "model.h"
 
 #include <stdio.h>
