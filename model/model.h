@@ -134,9 +134,79 @@ int mdl_rig_read(const char *path, int nv, mdl_rig **out, char *err);
 int mdl_rig_parse(const char *buf, size_t len, const char *name, int nv, mdl_rig **out, char *err);
 void mdl_rig_destroy(mdl_rig *r);
 
-/* ------------------------------------------------------------------ the part-based model (paper 2012) */
+/* ------------------------------------------------------------------ models and their kinds (kind.c) */
 
+/* A model is one mesh (rest pose, faces, topology fingerprint, box, fps), optionally the rig that
+ * binds markers to it, and one or more *kinds* over that mesh (DESIGN.md, "Model kinds"):
+ *   MDL_KIND_STEER     Voegele et al. 2012: driven by markers, trained from an example sequence
+ *   MDL_KIND_HARMONIC  de Aguiar et al. 2007: driven by bone directions / joint rotations
+ *   MDL_KIND_SKIN      Le & Deng 2012 skinning + Zheng 2013 variations: driven by a clock
+ * The first kind is the *primary* one: what mdl_synth_create(m, 0, ...) runs. Everything outside
+ * model/ uses only the kind-neutral calls below; training is kind-specific. */
 typedef struct mdl_model mdl_model;
+
+enum { MDL_KIND_STEER = 1, MDL_KIND_HARMONIC = 2, MDL_KIND_SKIN = 3 };
+#define MDL_MAX_KINDS 4
+
+/* What a kind's synthesis reads (mdl_synth_input), as bits. */
+enum {
+    MDL_INPUT_MARKERS = 1u << 0, /* marker positions + validity, model marker order */
+    MDL_INPUT_JOINTS = 1u << 1,  /* joint rotations (a skeleton source: BVH, ASF/AMC) */
+    MDL_INPUT_CLOCK = 1u << 2,   /* time alone (the idle source): no source frames needed */
+};
+
+/* "steer", "harmonic", "skin", or NULL for an unknown id. */
+const char *mdl_kind_name(int kind);
+/* The id for a name, or 0. */
+int mdl_kind_from_name(const char *name);
+
+int mdl_model_save(const mdl_model *m, const char *path, char *err);
+/* Reads a model file: version 2 (chunks, docs/FORMATS.md) or version 1 (a steering model,
+ * converted on load). */
+int mdl_model_load(const char *path, mdl_model **out, char *err);
+int mdl_model_parse(const uint8_t *buf, size_t len, const char *name, mdl_model **out, char *err);
+void mdl_model_destroy(mdl_model *m);
+
+/* Moves every kind of *src into dst (they must share the mesh: MDL_ETOPOLOGY otherwise, and a kind
+ * dst already has is refused with -EEXIST), then destroys *src and sets it to NULL. On error
+ * nothing changes. So one file holds a steering model and the skin of the same example. */
+int mdl_model_merge(mdl_model *dst, mdl_model **src, char *err);
+
+/* Read-only views into the model (valid while the model lives). */
+typedef struct mdl_model_info {
+    const char *name;
+    int kind;              /* the primary kind, MDL_KIND_* */
+    int nkinds;
+    int kinds[MDL_MAX_KINDS]; /* kinds[0] == kind */
+    unsigned inputs;       /* MDL_INPUT_* bits the primary kind's synthesis reads */
+    int nv, nf;
+    const float *rest;     /* nv x 3, the reference frame */
+    const uint32_t *F;     /* nf x 3 */
+    uint64_t topology;     /* mdl_topology_fingerprint of F */
+    int nmarkers;          /* markers the model is driven by (0: none, e.g. a clock-driven kind) */
+    const mdl_rig_marker *markers;
+    int nclusters;         /* parts for colouring (steer: the disjoint clusters); 0 if none */
+    const int *part;       /* nv: the part of each vertex, or NULL */
+    int ntrain;            /* training frames (0 for a kind built without an example) */
+    const int *train_frames;
+    double fps;            /* of the example mesh sequence, 0 if unknown */
+    float bbox_min[3], bbox_max[3]; /* box of all training frames (or the rest pose) */
+    int virtual_markers;   /* 1 when trained without a marker recording */
+} mdl_model_info;
+
+void mdl_model_get_info(const mdl_model *m, mdl_model_info *info);
+
+/* Writes a human-readable summary (what `meshsteer inspect` prints) into buf. */
+int mdl_model_describe(const mdl_model *m, char *buf, size_t len);
+
+/* The training report (JSON) as a newly allocated string (cJSON_Print; free() it), or NULL. */
+char *mdl_model_report_json(const mdl_model *m);
+
+/* Maps source labels to model markers: map[i] = index into `names` of model marker i, or -1.
+ * Returns how many model markers stay unbound. */
+int mdl_model_bind_markers(const mdl_model *m, const char *const *names, int count, int *map);
+
+/* ------------------------------------------------------------------ the steering model (paper 2012, steer/) */
 
 typedef void (*mdl_progress_fn)(void *ud, const char *stage, double fraction);
 
@@ -173,46 +243,24 @@ void mdl_train_opts_default(mdl_train_opts *o);
 
 /* Trains from mesh frames `frames[0..nframes)` of `seq`. With `markers` NULL the rig vertices'
  * own trajectories are the markers (virtual markers); otherwise the rig's `source` names select
- * the markers and pose adaption (Sec. 4.2) maps the recording onto the mesh frames. */
-int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
+ * the markers and pose adaption (Sec. 4.2) maps the recording onto the mesh frames. The result is
+ * a model whose primary kind is MDL_KIND_STEER. */
+int mdl_steer_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
                     const mdl_markers *markers, const mdl_train_opts *o, mdl_model **out, char *err);
-int mdl_model_save(const mdl_model *m, const char *path, char *err);
-int mdl_model_load(const char *path, mdl_model **out, char *err);
-int mdl_model_parse(const uint8_t *buf, size_t len, const char *name, mdl_model **out, char *err);
-void mdl_model_destroy(mdl_model *m);
 
-/* Read-only views into the model (valid while the model lives). */
-typedef struct mdl_model_info {
-    const char *name;
-    int nv, nf;
-    const float *rest;     /* nv x 3, the reference frame */
-    const uint32_t *F;     /* nf x 3 */
-    uint64_t topology;     /* mdl_topology_fingerprint of F */
-    int nmarkers;
-    const mdl_rig_marker *markers;
-    int nclusters;         /* disjoint parts */
-    const int *part;       /* nv: the part (cluster) of each vertex, for colouring */
-    int ntrain;            /* training frames */
-    const int *train_frames;
-    double fps;            /* of the training mesh sequence, 0 if unknown */
-    float bbox_min[3], bbox_max[3]; /* box of all training frames */
-    int virtual_markers;   /* 1 when trained without a marker recording */
-} mdl_model_info;
-
-void mdl_model_get_info(const mdl_model *m, mdl_model_info *info);
-
-/* Writes a human-readable summary (what `meshsteer inspect` prints) into buf. */
-int mdl_model_describe(const mdl_model *m, char *buf, size_t len);
-
-/* The training report (JSON) as a newly allocated string (cJSON_Print; free() it), or NULL. */
-char *mdl_model_report_json(const mdl_model *m);
-
-/* Maps source labels to model markers: map[i] = index into `names` of model marker i, or -1. */
-int mdl_model_bind_markers(const mdl_model *m, const char *const *names, int count, int *map);
-
-/* ------------------------------------------------------------------ synthesis (Sec. 5) */
+/* ------------------------------------------------------------------ synthesis, any kind */
 
 typedef struct mdl_synth mdl_synth;
+
+/* One frame's input. Each kind reads the parts its info.inputs names and ignores the rest. */
+typedef struct mdl_synth_input {
+    const float *markers;     /* MDL_INPUT_MARKERS: nmarkers x 3 in model marker order (metres) */
+    const uint8_t *valid;     /* nmarkers, 1 = present; NULL = all valid */
+    int njoints;              /* MDL_INPUT_JOINTS: joints in the kind's joint order */
+    const float *joint_rot;   /* njoints x 4 unit quaternions (w, x, y, z), world frame */
+    const uint8_t *joint_valid; /* njoints; NULL = all valid */
+    double t;                 /* MDL_INPUT_CLOCK: seconds since the synthesis started */
+} mdl_synth_input;
 
 typedef struct mdl_synth_info {
     int markers_missing;  /* markers invalid in this frame */
@@ -221,13 +269,18 @@ typedef struct mdl_synth_info {
 } mdl_synth_info;
 
 /* All memory for synthesis is allocated here; mdl_synth_frame allocates nothing. One mdl_synth per
- * thread; the model may be shared read-only between several. */
-int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err);
+ * thread; the model may be shared read-only between several. `kind` 0 is the primary kind; another
+ * MDL_KIND_* picks that kind of the model (-ENOENT if it has none). */
+int mdl_synth_create(const mdl_model *m, int kind, mdl_synth **out, char *err);
 void mdl_synth_destroy(mdl_synth *s);
-/* markers: nmarkers x 3 in model marker order (metres); valid may be NULL (all valid).
- * V: nv x 3 output. info may be NULL. Returns 0, or -EAGAIN while no reference was ever seen. */
-int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, float *V,
-                    mdl_synth_info *info);
+/* The MDL_INPUT_* bits this synthesis reads. */
+unsigned mdl_synth_inputs(const mdl_synth *s);
+/* V: nv x 3 output. info may be NULL. Returns 0, or -EAGAIN while the input does not yet allow a
+ * frame (e.g. no reference was ever seen). */
+int mdl_synth_frame(mdl_synth *s, const mdl_synth_input *in, float *V, mdl_synth_info *info);
+/* The common case of a marker-driven kind: in = {markers, valid}. */
+int mdl_synth_markers(mdl_synth *s, const float *markers, const uint8_t *valid, float *V,
+                      mdl_synth_info *info);
 /* Forgets held markers and motion history (seek, new performer). */
 void mdl_synth_reset(mdl_synth *s);
 
@@ -266,7 +319,8 @@ typedef struct mdl_eval_result {
     double *baseline_frame_err;
 } mdl_eval_result;
 
-/* The mesh must have the model's topology (MDL_ETOPOLOGY otherwise). */
+/* The mesh must have the model's topology (MDL_ETOPOLOGY otherwise). Runs the primary kind's own
+ * evaluation (-ENOTSUP for a kind that has none). */
 int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, int n,
                  const mdl_eval_opts *o, mdl_eval_result *r, char *err);
 void mdl_eval_result_fini(mdl_eval_result *r);

@@ -231,7 +231,7 @@ int cmd_synth(int argc, char **argv)
                  "'Driving a model with other labels')", mk, info.nmarkers, markers->count);
         goto out;
     }
-    if (mdl_synth_create(model, &s, err)) {
+    if (mdl_synth_create(model, 0, &s, err)) {
         status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
         goto out;
     }
@@ -252,7 +252,7 @@ int cmd_synth(int argc, char **argv)
         mdl_synth_info si;
         struct timespec t0, t1;
         clock_gettime(CLOCK_MONOTONIC, &t0);
-        int r = mdl_synth_frame(s, P, valid, out + (size_t)i * info.nv * 3, &si);
+        int r = mdl_synth_markers(s, P, valid, out + (size_t)i * info.nv * 3, &si);
         clock_gettime(CLOCK_MONOTONIC, &t1);
         times[i] = 1e6 * (double)(t1.tv_sec - t0.tv_sec) + 1e-3 * (double)(t1.tv_nsec - t0.tv_nsec);
         if (r == -EAGAIN) { /* no reference edge yet: fill with the rest pose later */

@@ -147,7 +147,7 @@ int cmd_train(int argc, char **argv)
     o.name = name;
     o.progress = cli_progress;
     o.progress_ud = (void *)"train";
-    int r = mdl_model_train(seq, idx, n, rig, markers, &o, &model, err);
+    int r = mdl_steer_train(seq, idx, n, rig, markers, &o, &model, err);
     cli_progress_done();
     if (r) {
         cli_fail(cmd, r == -ENOMEM || r == MDL_ENUMERIC ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);

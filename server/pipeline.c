@@ -195,7 +195,7 @@ int srv_pipeline_load(const char *model_path, const char *labels, const drv_sour
         srv_bundle_fini(out);
         return srv_err(err, r, "model %s: %s", model_path, e);
     }
-    r = mdl_synth_create(model, &out->synth, e);
+    r = mdl_synth_create(model, 0, &out->synth, e);
     if (r) {
         srv_bundle_fini(out);
         return srv_err(err, r, "model %s: synthesis: %s", model_path, e);
@@ -431,7 +431,7 @@ static void *synth_main(void *arg)
         }
         uint64_t t0 = srv_now_us();
         mdl_synth_info si = {0};
-        int r = mdl_synth_frame(b->synth, b->mk, b->mv, b->V, &si);
+        int r = mdl_synth_markers(b->synth, b->mk, b->mv, b->V, &si);
         if (r != 0) {
             srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_FAILED], 1);
             srv_log(SRV_LOG_DEBUG, "synthesis refused a frame (%d)", r);

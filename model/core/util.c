@@ -84,3 +84,15 @@ double mdl__gauss(uint64_t *state)
     double u = mdl__uniform(state), v = mdl__uniform(state);
     return sqrt(-2 * log(u)) * cos(2 * M_PI * v);
 }
+
+void mdl__appendf(char *buf, size_t len, size_t *at, const char *fmt, ...)
+{
+    if (*at >= len)
+        return;
+    va_list ap;
+    va_start(ap, fmt);
+    int w = vsnprintf(buf + *at, len - *at, fmt, ap);
+    va_end(ap);
+    if (w > 0)
+        *at = (size_t)w < len - *at ? *at + (size_t)w : len;
+}

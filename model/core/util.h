@@ -17,6 +17,11 @@ int mdl__read_file(const char *path, size_t max_bytes, char **buf, size_t *len, 
 /* Overflow-checked allocation of n * size bytes, zeroed. Returns NULL on overflow or failure. */
 void *mdl__calloc(size_t n, size_t size);
 
+/* printf into buf + *at (buf holds len bytes), advancing *at; output past the end is cut and *at
+ * then reaches len, which callers test to report truncation. */
+void mdl__appendf(char *buf, size_t len, size_t *at, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+
 /* A reproducible random stream (splitmix64): uniform in (0, 1) and standard normal (Box-Muller). */
 double mdl__uniform(uint64_t *state);
 double mdl__gauss(uint64_t *state);

@@ -1,8 +1,9 @@
-/* eval.c - quality of a model against ground-truth frames, beside the nearest-training-frame
+/* eval.c - quality of a steering model against ground-truth frames, beside the nearest-training-frame
  * baseline (DESIGN.md "Quality, measured"; the interface is documented in model.h).
  * Evaluation, not a per-frame path: it allocates freely. Noise comes from util.h's reproducible
  * stream, so that a seed reproduces a run exactly. */
 #include "steer/steer_internal.h"
+#include "kind.h"
 #include "core/rigid.h"
 #include "core/util.h"
 
@@ -37,18 +38,13 @@ static double marker_fit(const float *A, const float *B, const uint8_t *valid, i
     return mdl__kabsch(ya, xb, NULL, k, R, t);
 }
 
-void mdl_eval_result_fini(mdl_eval_result *r)
+int mdl__steer_eval(const mdl_model *model, const mdl_meshseq *seq, const int *frames, int n,
+                    const mdl_eval_opts *o, mdl_eval_result *r, char *err)
 {
-    free(r->synth_us);
-    free(r->frame_err);
-    free(r->baseline_frame_err);
+    const struct mdl_steer *m = mdl__model_steer(model);
     memset(r, 0, sizeof *r);
-}
-
-int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, int n,
-                 const mdl_eval_opts *o, mdl_eval_result *r, char *err)
-{
-    memset(r, 0, sizeof *r);
+    if (!m)
+        return mdl__err(err, -ENOENT, "model '%s' holds no steering model", model->name);
     if (seq->nv != m->nv || seq->nf != m->nf ||
         mdl_topology_fingerprint(seq->F, seq->nf, seq->nv) != m->topology)
         return mdl__err(err, MDL_ETOPOLOGY,
@@ -66,7 +62,7 @@ int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, 
                             "the training sequence?",
                             m->train_frames[i]);
     int nv = m->nv, nm = m->nmarkers, rc = 0;
-    mdl_synth *s = NULL;
+    mdl_steer_synth *s = NULL;
     float *V = mdl__calloc((size_t)nv * 3, sizeof *V), *dist = mdl__calloc((size_t)nv, sizeof *dist);
     float *all = mdl__calloc((size_t)nv * n, sizeof *all), *bl = mdl__calloc((size_t)nv * n, sizeof *bl);
     float *mk = mdl__calloc((size_t)nm * 3, sizeof *mk), *tmk = mdl__calloc((size_t)nm * 3, sizeof *tmk);
@@ -81,7 +77,7 @@ int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, 
         rc = mdl__err(err, -ENOMEM, "eval: out of memory");
         goto out;
     }
-    if ((rc = mdl_synth_create(m, &s, err)))
+    if ((rc = mdl__steer_synth_create(m, &s, err)))
         goto out;
     memset(allv, 1, (size_t)nm);
     double diag = 0;
@@ -116,7 +112,7 @@ int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, 
         }
         struct timespec t0, t1;
         clock_gettime(CLOCK_MONOTONIC, &t0);
-        int sr = mdl_synth_frame(s, mk, valid, V, NULL);
+        int sr = mdl__steer_synth_frame(s, mk, valid, V, NULL);
         clock_gettime(CLOCK_MONOTONIC, &t1);
         if (sr == -EAGAIN) {
             r->frames_skipped++;
@@ -181,7 +177,7 @@ int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, 
         r->baseline_nn_p95_err = bl[k];
     }
 out:
-    mdl_synth_destroy(s);
+    mdl__steer_synth_destroy(s);
     free(V);
     free(dist);
     free(all);

@@ -23,8 +23,6 @@
 
 #include "model.h"
 
-#define MDL_MODEL_MAGIC "MSTRMODL"
-#define MDL_MODEL_VERSION 1
 
 typedef struct mdl_limb_reg {
     int nin;        /* features d_l (Table 1), computed by mdl__limb_features */
@@ -40,7 +38,7 @@ typedef struct mdl_limb_reg {
     double rms_train, rms_loo; /* regression residuals (report) */
 } mdl_limb_reg;
 
-struct mdl_model {
+struct mdl_steer {
     char name[MDL_NAME_LEN];
     int nv, nf;
     float *rest;            /* nv x 3 */
@@ -130,10 +128,43 @@ struct mdl_model {
 };
 
 /* Frees everything a model holds; NULL is fine. */
-void mdl__model_free(struct mdl_model *m);
+void mdl__steer_free(struct mdl_steer *m);
 
+/* train.c: the whole training (model.h, mdl_steer_train). */
+int mdl__steer_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
+                     const mdl_markers *markers, const mdl_train_opts *opts, struct mdl_steer **out,
+                     char *err);
+
+/* synth.c: synthesis (Sec. 5), behind the kind table of steer_kind.c. */
+typedef struct mdl_steer_synth mdl_steer_synth;
+int mdl__steer_synth_create(const struct mdl_steer *m, mdl_steer_synth **out, char *err);
+void mdl__steer_synth_destroy(mdl_steer_synth *s);
+int mdl__steer_synth_frame(mdl_steer_synth *s, const float *markers, const uint8_t *valid,
+                           float *Vout, mdl_synth_info *info);
+void mdl__steer_synth_reset(mdl_steer_synth *s);
 /* Makes s use the plain x86-64 variant of synthesis even on an AVX2 machine (tests: both
  * variants must give identical frames). */
-void mdl__synth_portable(mdl_synth *s);
+void mdl__steer_synth_portable(mdl_steer_synth *s);
+
+/* steer_file.c: the steering chunk of the model file (docs/FORMATS.md). v1 = 1 reads the body of
+ * a version-1 file, which also holds the mesh and the rig (converted on load); otherwise the mesh
+ * and rig come from m. */
+struct mdl__wbuf;
+struct mdl__rbuf;
+void mdl__steer_save(const struct mdl_steer *s, struct mdl__wbuf *b);
+int mdl__steer_parse(struct mdl__rbuf *b, const mdl_model *m, int v1, struct mdl_steer **out);
+
+/* eval.c: mdl_eval_run for the steering kind. */
+int mdl__steer_eval(const mdl_model *model, const mdl_meshseq *seq, const int *frames, int n,
+                    const mdl_eval_opts *o, mdl_eval_result *r, char *err);
+
+/* steer_file.c: a model holding s as its primary kind, over s's mesh and rig (takes s, also on
+ * error). */
+int mdl__steer_model_from(struct mdl_steer *s, mdl_model **out, char *err);
+
+/* The steering model inside a model (NULL if it has none). */
+const struct mdl_steer *mdl__model_steer(const mdl_model *m);
+/* Same, for a synthesis of the steering kind (tests of internals). */
+mdl_steer_synth *mdl__synth_steer(mdl_synth *s);
 
 #endif

@@ -24,13 +24,13 @@
  * Missing markers: a marker that is invalid in a frame is held at its last valid position
  * (counted in info->markers_held); a marker never seen makes its limbs use the training mean of
  * their parameters; without a reference edge the last body frame is kept (info->reference_lost).
- * Everything is allocated in mdl_synth_create; mdl_synth_frame allocates nothing.
+ * Everything is allocated in mdl__steer_synth_create; mdl__steer_synth_frame allocates nothing.
  *
  * Layout for speed (docs/MODEL.md, "Synthesis per frame"): steps 3a-b read only the overlap
  * vertices (m->sov) and the marker vertices, kept in compact per-entry arrays; the full local
  * shape of eq. (6) is formed only inside the blend, from structure-of-arrays copies of the part
  * means and modes. Step 3 and the blend are each compiled for plain x86-64 and for AVX2 and
- * picked once in mdl_synth_create; both do the same operations in the same order.
+ * picked once in mdl__steer_synth_create; both do the same operations in the same order.
  */
 #include "steer/posefeat.h"
 #include "core/linalg.h"
@@ -45,7 +45,7 @@
 #include <string.h>
 
 /* four and eight floats, for the blend's transform (GCC/Clang vector extension): one SSE
- * register, or one AVX register in the variant for AVX2 machines (chosen in mdl_synth_create) */
+ * register, or one AVX register in the variant for AVX2 machines (chosen in mdl__steer_synth_create) */
 typedef float mdl__v4f __attribute__((vector_size(16)));
 typedef float mdl__v8f __attribute__((vector_size(32)));
 typedef double mdl__v4d __attribute__((vector_size(32))); /* xyz and a zero */
@@ -59,18 +59,18 @@ typedef void (*blend_place_fn)(int n8, int k, const float *mean, const float *V,
 static void blend_place4(int n8, int k, const float *mean, const float *V, const float *lam,
                          const float *iw, const float W[9], const float tw[3], float *lx, float *ly,
                          float *lz);
-static void alternate_base(mdl_synth *s);
+static void alternate_base(mdl_steer_synth *s);
 #ifdef SYNTH_AVX2
 __attribute__((target("avx2"))) static void blend_place8(int n8, int k, const float *mean,
                                                          const float *V, const float *lam,
                                                          const float *iw, const float W[9],
                                                          const float tw[3], float *lx, float *ly,
                                                          float *lz);
-__attribute__((target("avx2"))) static void alternate_avx2(mdl_synth *s);
+__attribute__((target("avx2"))) static void alternate_avx2(mdl_steer_synth *s);
 #endif
 
-struct mdl_synth {
-    const struct mdl_model *m;
+struct mdl_steer_synth {
+    const struct mdl_steer *m;
     float *P, *Pprev, *Plast;  /* nmarkers x 3: this frame, previous frame, last valid */
     uint8_t *seen;             /* nmarkers: ever valid */
     int have_prev, have_body;
@@ -95,7 +95,7 @@ struct mdl_synth {
     int *zero, nzero;          /* output vertices not given by one instance alone */
     double *mloc;              /* 3 per marker entry (imk): local shape of the marker vertex */
     blend_place_fn place;      /* blend_place4 or, on AVX2 machines, blend_place8 */
-    void (*alternate)(struct mdl_synth *); /* alternate_base or alternate_avx2 */
+    void (*alternate)(struct mdl_steer_synth *); /* alternate_base or alternate_avx2 */
     float *flam;               /* max modes, float copy of an instance's lambda */
     float *iw;                 /* blend weight (eq. 8) of every instance vertex, padded as loc / 3 */
     double *acc;               /* nv x 4 (xyz, 0): sum of the instances' positions */
@@ -113,7 +113,7 @@ struct mdl_synth {
     double *ymom;              /* per instance: sum y (3) and sum |y|^2 over its entries */
 };
 
-void mdl_synth_destroy(mdl_synth *s)
+void mdl__steer_synth_destroy(mdl_steer_synth *s)
 {
     if (!s)
         return;
@@ -165,16 +165,16 @@ void mdl_synth_destroy(mdl_synth *s)
     free(s);
 }
 
-void mdl__synth_portable(mdl_synth *s)
+void mdl__steer_synth_portable(mdl_steer_synth *s)
 {
     s->place = blend_place4;
     s->alternate = alternate_base;
 }
 
-int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
+int mdl__steer_synth_create(const struct mdl_steer *m, mdl_steer_synth **out, char *err)
 {
     *out = NULL;
-    mdl_synth *s = mdl__calloc(1, sizeof *s);
+    mdl_steer_synth *s = mdl__calloc(1, sizeof *s);
     if (!s)
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     s->m = m;
@@ -355,7 +355,7 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
                     e++;
                 if (e == m->sov_off[i + 1]) {
                     free(ctot);
-                    mdl_synth_destroy(s);
+                    mdl__steer_synth_destroy(s);
                     return mdl__err(err, -EINVAL, "synth: model's greedy overlap vertex %d of instance %d "
                                     "is not among its overlap vertices", m->order_ov[o], i);
                 }
@@ -372,14 +372,14 @@ int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err)
         !s->acc || !s->cnt || !s->rhs || !s->mb ||
         !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker || !s->sov_v || !s->sov_inv ||
         !s->sloc || !s->spos || !s->oov_e || !s->ymom) {
-        mdl_synth_destroy(s);
+        mdl__steer_synth_destroy(s);
         return mdl__err(err, -ENOMEM, "synth: out of memory");
     }
     *out = s;
     return 0;
 }
 
-void mdl_synth_reset(mdl_synth *s)
+void mdl__steer_synth_reset(mdl_steer_synth *s)
 {
     memset(s->seen, 0, (size_t)s->m->nmarkers);
     s->have_prev = 0;
@@ -408,9 +408,9 @@ static inline __attribute__((always_inline)) void local_vertex(const float *mean
  * shape is needed only by the final blend. Also the moments of the overlap vertices' local
  * positions (sum y, sum |y|^2 over the entries with other instances), which the relaxation
  * sweeps reuse until the next shape step. */
-static inline __attribute__((always_inline)) void update_local_needed(mdl_synth *s, int i)
+static inline __attribute__((always_inline)) void update_local_needed(mdl_steer_synth *s, int i)
 {
-    const struct mdl_model *m = s->m;
+    const struct mdl_steer *m = s->m;
     int p = m->inst_part[i], k = m->pmodes[p], n3 = 3 * (m->pv_off[p + 1] - m->pv_off[p]);
     const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
     const float *V = m->part_modes + m->pm_off[p];
@@ -452,9 +452,9 @@ static inline __attribute__((always_inline)) void update_local_needed(mdl_synth 
 /* Places instance i's overlap vertices R loc + t into spos (all that the alignment and shape
  * steps read of its placement). `add` 1 adds them to acc/cnt (greedy pass), 0 replaces the
  * instance's previous contribution there (acc += new - old). One 4-vector per vertex (xyz, 0). */
-static inline __attribute__((always_inline)) void inst_emit(mdl_synth *s, int i, int add)
+static inline __attribute__((always_inline)) void inst_emit(mdl_steer_synth *s, int i, int add)
 {
-    const struct mdl_model *m = s->m;
+    const struct mdl_steer *m = s->m;
     const double *R = s->iR + 9 * i, *t = s->it + 3 * i;
     const mdl__v4d c0 = {R[0], R[3], R[6], 0}, c1 = {R[1], R[4], R[7], 0}, c2 = {R[2], R[5], R[8], 0},
                    tv = {t[0], t[1], t[2], 0};
@@ -482,10 +482,10 @@ static inline __attribute__((always_inline)) void inst_emit(mdl_synth *s, int i,
  * sy = sum w y, sx = sum w x, syx = sum w y x^T, syy = sum w |y|^2): the instance's markers (when
  * the model uses them) are added as targets at the markers' positions. Without any target the
  * prediction stays. */
-static void align_solve(mdl_synth *s, int i, double ws, double sy[3], double sx[3], double syx[9],
+static void align_solve(mdl_steer_synth *s, int i, double ws, double sy[3], double sx[3], double syx[9],
                         double syy)
 {
-    const struct mdl_model *m = s->m;
+    const struct mdl_steer *m = s->m;
     int nmk = 0;
     for (int e = s->imk_off[i]; e < s->imk_off[i + 1]; e++)
         nmk += s->mvalid[s->imk_marker[e]];
@@ -527,7 +527,7 @@ static void align_solve(mdl_synth *s, int i, double ws, double sy[3], double sx[
 
 /* Greedy step: the overlap entries `ov` (n of them, indices into sov) of instance i go to the
  * mean position of the instances placed before it. */
-static inline __attribute__((always_inline)) void align_greedy(mdl_synth *s, int i, const int *ov, int n)
+static inline __attribute__((always_inline)) void align_greedy(mdl_steer_synth *s, int i, const int *ov, int n)
 {
     double ws = 0, sy[3] = {0}, sx[3] = {0}, syx[9] = {0}, syy = 0;
     for (int o = 0; o < n; o++) {
@@ -554,9 +554,9 @@ static inline __attribute__((always_inline)) void align_greedy(mdl_synth *s, int
  * instances give it, (acc - own) / (cnt - 1) with the counts fixed after the greedy pass
  * (sov_inv); sum y and sum |y|^2 come from update_local_needed. Row r of sum y x^T is the
  * 4-vector sum y_r x. */
-static inline __attribute__((always_inline)) void align_relax(mdl_synth *s, int i)
+static inline __attribute__((always_inline)) void align_relax(mdl_steer_synth *s, int i)
 {
-    const struct mdl_model *m = s->m;
+    const struct mdl_steer *m = s->m;
     const double *restrict acc = s->acc, *restrict inv = s->sov_inv;
     const double *restrict sloc = s->sloc, *restrict spos = s->spos;
     const int *restrict sv = s->sov_v;
@@ -587,9 +587,9 @@ static inline __attribute__((always_inline)) void align_relax(mdl_synth *s, int 
  * instance is aligned again to all its neighbours (a block coordinate descent on the same
  * objective, which carries marker targets along the limb chains). The alignments between shape
  * steps get one sweep; the last one gets the model's full count. */
-static inline __attribute__((always_inline)) void relax_all(mdl_synth *s, int relax)
+static inline __attribute__((always_inline)) void relax_all(mdl_steer_synth *s, int relax)
 {
-    const struct mdl_model *m = s->m;
+    const struct mdl_steer *m = s->m;
     for (int sweep = 0; sweep < relax; sweep++)
         for (int step = 0; step < m->ninst; step++) {
             int i = m->order[step];
@@ -598,15 +598,15 @@ static inline __attribute__((always_inline)) void relax_all(mdl_synth *s, int re
         }
 }
 
-static inline __attribute__((always_inline)) void emit_all(mdl_synth *s)
+static inline __attribute__((always_inline)) void emit_all(mdl_steer_synth *s)
 {
     for (int i = 0; i < s->m->ninst; i++)
         inst_emit(s, i, 0);
 }
 
-static inline __attribute__((always_inline)) void align_all(mdl_synth *s, int relax)
+static inline __attribute__((always_inline)) void align_all(mdl_steer_synth *s, int relax)
 {
-    const struct mdl_model *m = s->m;
+    const struct mdl_steer *m = s->m;
     for (int e = 0; e < s->nshared; e++) { /* only shared vertices are ever accumulated */
         int v = s->shared[e];
         memset(s->acc + 4 * (size_t)v, 0, 4 * sizeof(double));
@@ -622,9 +622,9 @@ static inline __attribute__((always_inline)) void align_all(mdl_synth *s, int re
 }
 
 /* Sec. 5.2, eq. (7), for every instance with modes. */
-static inline __attribute__((always_inline)) void optimise_shapes(mdl_synth *s)
+static inline __attribute__((always_inline)) void optimise_shapes(mdl_steer_synth *s)
 {
-    const struct mdl_model *m = s->m;
+    const struct mdl_steer *m = s->m;
     for (int i = 0; i < m->ninst; i++) {
         int p = m->inst_part[i], k = m->pmodes[p], n = m->pv_off[p + 1] - m->pv_off[p];
         if (k == 0)
@@ -662,11 +662,11 @@ static inline __attribute__((always_inline)) void optimise_shapes(mdl_synth *s)
 }
 
 /* Step 3 of the header: alternate alignment and shape optimisation. Compiled for plain x86-64
- * and, on AVX2 machines, with one register per 4-vector (chosen in mdl_synth_create; the same
+ * and, on AVX2 machines, with one register per 4-vector (chosen in mdl__steer_synth_create; the same
  * operations in the same order, so the same result). */
-static inline __attribute__((always_inline)) void alternate_body(mdl_synth *s)
+static inline __attribute__((always_inline)) void alternate_body(mdl_steer_synth *s)
 {
-    const struct mdl_model *m = s->m;
+    const struct mdl_steer *m = s->m;
     for (int i = 0; i < m->ninst; i++)
         update_local_needed(s, i);
     align_all(s, m->iterations > 0 ? 1 : m->relax);
@@ -679,13 +679,13 @@ static inline __attribute__((always_inline)) void alternate_body(mdl_synth *s)
     }
 }
 
-static void alternate_base(mdl_synth *s)
+static void alternate_base(mdl_steer_synth *s)
 {
     alternate_body(s);
 }
 
 #ifdef SYNTH_AVX2
-__attribute__((target("avx2"))) static void alternate_avx2(mdl_synth *s)
+__attribute__((target("avx2"))) static void alternate_avx2(mdl_steer_synth *s)
 {
     alternate_body(s);
 }
@@ -731,10 +731,10 @@ BLEND_PLACE(blend_place4, , mdl__v4f, 4)
 BLEND_PLACE(blend_place8, __attribute__((target("avx2"))), mdl__v8f, 8)
 #endif
 
-int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, float *Vout,
-                    mdl_synth_info *info)
+int mdl__steer_synth_frame(mdl_steer_synth *s, const float *markers, const uint8_t *valid,
+                           float *Vout, mdl_synth_info *info)
 {
-    const struct mdl_model *m = s->m;
+    const struct mdl_steer *m = s->m;
     int nm = m->nmarkers, missing = 0, held = 0;
     mdl_synth_info dummy;
     if (!info)

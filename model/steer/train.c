@@ -110,9 +110,9 @@ static int part_path(int nparts, const int *adj_off, const int *adj, int a, int 
     return 0;
 }
 
-int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
-                    const mdl_markers *markers, const mdl_train_opts *opts, mdl_model **out,
-                    char *err)
+int mdl__steer_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
+                     const mdl_markers *markers, const mdl_train_opts *opts, struct mdl_steer **out,
+                     char *err)
 {
     mdl_train_opts defo;
     if (!opts) {
@@ -136,7 +136,7 @@ int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
     if (rig->nlimbs < 1 || rig->nref < 2)
         return mdl__err(err, -EINVAL, "train: the rig needs a reference edge and at least one limb");
 
-    struct mdl_model *m = mdl__calloc(1, sizeof *m);
+    struct mdl_steer *m = mdl__calloc(1, sizeof *m);
     if (!m)
         return mdl__err(err, -ENOMEM, "train: out of memory");
     mdl_graph g = {0};
@@ -999,7 +999,7 @@ out:
     free(Pm);
     free(Pn);
     if (rc) {
-        mdl__model_free(m);
+        mdl__steer_free(m);
         return rc;
     }
     *out = m;

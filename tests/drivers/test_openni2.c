@@ -238,7 +238,7 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
     mdl_train_opts o;
     mdl_train_opts_default(&o);
     mdl_model *m;
-    ASSERT_OK(mdl_model_train(seq, frames, 22, rig, NULL, &o, &m, err), err);
+    ASSERT_OK(mdl_steer_train(seq, frames, 22, rig, NULL, &o, &m, err), err);
     char model[4400];
     snprintf(model, sizeof model, "%s/samba-depth.msm", stage);
     ASSERT_OK(mdl_model_save(m, model, err), err);

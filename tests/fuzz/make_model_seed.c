@@ -22,7 +22,7 @@ int main(int argc, char **argv)
     mdl_train_opts_default(&o);
     o.name = "fuzz-seed";
     mdl_model *m;
-    int rc = mdl_model_train(s, frames, 12, rig, NULL, &o, &m, err);
+    int rc = mdl_steer_train(s, frames, 12, rig, NULL, &o, &m, err);
     if (!rc)
         rc = mdl_model_save(m, argv[1], err);
     if (rc)

@@ -31,7 +31,7 @@ static mdl_model *train(const mdl_meshseq *s, const char *rigfile, const char *s
     int *idx, n;
     ASSERT_OK(mdl_parse_frames(spec, s->frames, &idx, &n, err), err);
     mdl_model *m;
-    ASSERT_OK(mdl_model_train(s, idx, n, rig, NULL, o, &m, err), err);
+    ASSERT_OK(mdl_steer_train(s, idx, n, rig, NULL, o, &m, err), err);
     free(idx);
     mdl_rig_destroy(rig);
     return m;

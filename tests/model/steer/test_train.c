@@ -35,7 +35,7 @@ int main(void)
     mdl_train_opts_default(&o);
     o.name = "tube";
     mdl_model *m;
-    ASSERT_OK(mdl_model_train(s, idx, n, rig, NULL, &o, &m, err), err);
+    ASSERT_OK(mdl_steer_train(s, idx, n, rig, NULL, &o, &m, err), err);
     mdl_model_info info;
     mdl_model_get_info(m, &info);
     ASSERT_INT_EQ(info.nv, s->nv);
@@ -75,10 +75,10 @@ int main(void)
     mdl_model *m2;
     ASSERT_OK(mdl_model_load(path, &m2, err), err);
     mdl_synth *a, *b, *c;
-    ASSERT_OK(mdl_synth_create(m, &a, err), err);
-    ASSERT_OK(mdl_synth_create(m2, &b, err), err);
-    ASSERT_OK(mdl_synth_create(m, &c, err), err);
-    mdl__synth_portable(c); /* the variant without AVX2 gives the same frames */
+    ASSERT_OK(mdl_synth_create(m, 0, &a, err), err);
+    ASSERT_OK(mdl_synth_create(m2, 0, &b, err), err);
+    ASSERT_OK(mdl_synth_create(m, 0, &c, err), err);
+    mdl__steer_synth_portable(mdl__synth_steer(c)); /* the variant without AVX2 gives the same frames */
     float *Vc = malloc(sizeof(float) * 3 * (size_t)s->nv);
     float mk[9], *Va = malloc(sizeof(float) * 3 * (size_t)s->nv), *Vb = malloc(sizeof(float) * 3 * (size_t)s->nv);
     /* the per-frame path allocates nothing: the heap in use is the same after 5 frames
@@ -87,10 +87,10 @@ int main(void)
     for (int f = 0; f < 5; f++) {
         for (int j = 0; j < 3; j++)
             memcpy(mk + 3 * j, s->V + ((size_t)(2 * f + 1) * s->nv + rig->markers[j].vertex) * 3, 12);
-        ASSERT_OK(mdl_synth_frame(a, mk, NULL, Va, NULL), "synth");
-        ASSERT_OK(mdl_synth_frame(b, mk, NULL, Vb, NULL), "synth");
+        ASSERT_OK(mdl_synth_markers(a, mk, NULL, Va, NULL), "synth");
+        ASSERT_OK(mdl_synth_markers(b, mk, NULL, Vb, NULL), "synth");
         ASSERT(memcmp(Va, Vb, sizeof(float) * 3 * (size_t)s->nv) == 0);
-        ASSERT_OK(mdl_synth_frame(c, mk, NULL, Vc, NULL), "synth");
+        ASSERT_OK(mdl_synth_markers(c, mk, NULL, Vc, NULL), "synth");
         ASSERT(memcmp(Va, Vc, sizeof(float) * 3 * (size_t)s->nv) == 0);
     }
     struct mallinfo2 after = mallinfo2();
@@ -99,13 +99,13 @@ int main(void)
     /* all markers missing before any was seen: -EAGAIN, no output; then held */
     mdl_synth_reset(a);
     uint8_t none[3] = {0, 0, 0}, some[3] = {1, 1, 0};
-    ASSERT_INT_EQ(mdl_synth_frame(a, mk, none, Va, NULL), -EAGAIN);
+    ASSERT_INT_EQ(mdl_synth_markers(a, mk, none, Va, NULL), -EAGAIN);
     mdl_synth_info si;
-    ASSERT_OK(mdl_synth_frame(a, mk, NULL, Va, &si), "synth");
-    ASSERT_OK(mdl_synth_frame(a, mk, some, Va, &si), "synth");
+    ASSERT_OK(mdl_synth_markers(a, mk, NULL, Va, &si), "synth");
+    ASSERT_OK(mdl_synth_markers(a, mk, some, Va, &si), "synth");
     ASSERT_INT_EQ(si.markers_missing, 1);
     ASSERT_INT_EQ(si.markers_held, 1);
-    ASSERT_OK(mdl_synth_frame(a, mk, none, Va, &si), "synth");
+    ASSERT_OK(mdl_synth_markers(a, mk, none, Va, &si), "synth");
     ASSERT_INT_EQ(si.reference_lost, 0); /* held reference markers still define the frame */
     for (int v = 0; v < 3 * s->nv; v++)
         ASSERT(isfinite(Va[v]));
