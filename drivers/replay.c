@@ -215,12 +215,12 @@ static int replay_read(drv_source *s, drv_frame *f, int timeout_ms, char *err)
     return 0;
 }
 
-static int replay_control(drv_source *s, const char *key, double value, char *err)
+static int replay_control(drv_source *s, unsigned ctl, double value, char *err)
 {
     replay *r = s->impl;
     if (!isfinite(value))
-        return drv__err(err, -EINVAL, "replay: %s: value is not finite", key);
-    if (!strcmp(key, "pause")) {
+        return drv__err(err, -EINVAL, "replay: %s: value is not finite", drv_control_name(ctl));
+    if (ctl == DRV_CTL_PAUSE) {
         if (value != 0 && value != 1)
             return drv__err(err, -EINVAL, "replay: pause must be 0 or 1");
         if (r->paused && value == 0)
@@ -228,7 +228,7 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
         r->paused = value != 0;
         return 0;
     }
-    if (!strcmp(key, "seek")) {
+    if (ctl == DRV_CTL_SEEK) {
         if (value < 0 || value >= r->m->frames || value != floor(value))
             return drv__err(err, -ERANGE, "replay: seek to %g outside the %d frames [0, %d]", value,
                           r->m->frames, r->m->frames - 1);
@@ -236,7 +236,7 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
         reanchor(r, now_us());
         return 0;
     }
-    if (!strcmp(key, "speed")) {
+    if (ctl == DRV_CTL_SPEED) {
         if (!(value > 0 && value <= REPLAY_MAX_SPEED))
             return drv__err(err, -ERANGE, "replay: speed %g outside (0, %g]", value,
                           REPLAY_MAX_SPEED);
@@ -245,14 +245,14 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
         r->speed = value;
         return 0;
     }
-    if (!strcmp(key, "loop")) {
+    if (ctl == DRV_CTL_LOOP) {
         if (value != 0 && value != 1)
             return drv__err(err, -EINVAL, "replay: loop must be 0 or 1");
         r->loop = value != 0;
         return 0;
     }
-    return drv__err(err, -ENOTSUP, "replay: unknown control '%s' (known: pause, seek, speed, loop)",
-                  key);
+    return drv__err(err, -ENOTSUP, "replay: no control '%s' (known: pause, seek, speed, loop)",
+                  drv_control_name(ctl));
 }
 
 static void replay_stop(drv_source *s)

@@ -207,20 +207,28 @@ int main(int argc, char **argv)
         return 1;
     }
     srv_log(SRV_LOG_NOTICE, "source %s: %d markers at %g fps", d.cfg.source, src->count, src->fps);
-    srv_bundle b;
-    if (d.cfg.labels[0])
-        srv_log(SRV_LOG_NOTICE, "labels: %s", d.cfg.labels);
-    if (srv_pipeline_load(d.cfg.model, d.cfg.labels, src, d.cfg.source, 1, &b, err)) {
+    srv_source_info si;
+    if (srv_source_info_init(&si, src, d.cfg.source, err)) {
         srv_log(SRV_LOG_ERROR, "%s", err);
         drv_source_close(src);
         return 1;
     }
-    srv_log(SRV_LOG_NOTICE, "model %s: '%s', %d vertices, %d faces, %d parts, %d markers",
-            d.cfg.model, b.gen->name, b.gen->nv, b.gen->nf, b.gen->nparts, b.gen->nm);
-    if (srv_pipeline_create(src, d.cfg.source, &b, &d.metrics, d.cfg.record, wake, &d, &d.pipe,
-                            err)) {
+    srv_bundle b;
+    if (d.cfg.labels[0])
+        srv_log(SRV_LOG_NOTICE, "labels: %s", d.cfg.labels);
+    if (srv_pipeline_load(d.cfg.model, d.cfg.labels, &si, 1, &b, err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        srv_source_info_fini(&si);
+        drv_source_close(src);
+        return 1;
+    }
+    srv_log(SRV_LOG_NOTICE, "model %s: '%s', %d vertices, %d faces, %d parts, %d markers%s",
+            d.cfg.model, b.gen->name, b.gen->nv, b.gen->nf, b.gen->nparts, b.gen->nm,
+            b.inputs & MDL_INPUT_MARKERS ? "" : ", driven by its own clock");
+    if (srv_pipeline_create(src, &si, &b, &d.metrics, d.cfg.record, wake, &d, &d.pipe, err)) {
         srv_log(SRV_LOG_ERROR, "%s", err);
         srv_bundle_fini(&b);
+        srv_source_info_fini(&si);
         drv_source_close(src);
         return 1;
     }
