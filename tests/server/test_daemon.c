@@ -666,13 +666,45 @@ static void scenario_config(void)
     ASSERT(wsc_run(ctx, 5000, enough, &wn));
     ASSERT(!c->connected && !no->connected);
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients_rejected_total"), 2);
+    printf("config: file settings in effect (int16, token), --max-clients overrode the file\n");
+
+    /* SIGHUP re-reads the file: a new token takes effect; a broken file keeps the old settings */
+    wsc_free(c);
+    wsc_free(no);
+    wsc_close(a);
+    wsc_close(b);
+    want wa0 = {a, 0, 0, 0, 1, -1}, wb0 = {b, 0, 0, 0, 1, -1};
+    wsc_run(ctx, 3000, enough, &wa0);
+    wsc_run(ctx, 3000, enough, &wb0);
+    snprintf(text, sizeof text,
+             "model = %s/model.msm\nsource = \"replay:%s/trot.csv?loop=1\"\nlisten = 127.0.0.1:0\n"
+             "token = open-sesame\nencoding = int16\n", H.dir, H.dir);
+    write_file(conf, text);
+    kill(H.pid, SIGHUP);
+    for (int t = 0; t < 500 && harness_metric(&H, "meshsteer_reloads_total") < 1; t++)
+        usleep(10000);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_total"), 1);
+    wsc *newtok = wsc_connect(ctx, H.port, "token=open-sesame", 0);
+    run_until(ctx, newtok, 3, 0, 10000);
+    wsc *oldtok = wsc_connect(ctx, H.port, "token=sesame", 0);
+    want wo = {oldtok, 0, 0, 0, 1, -1};
+    ASSERT(wsc_run(ctx, 5000, enough, &wo));
+    ASSERT(!oldtok->connected);
+    write_file(conf, "model = m.msm\nmax_clients = lots\n");
+    kill(H.pid, SIGHUP);
+    for (int t = 0; t < 500 && harness_metric(&H, "meshsteer_reloads_total") < 2; t++)
+        usleep(10000);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_total"), 2); /* the model reloads still */
+    wsc *again = wsc_connect(ctx, H.port, "token=open-sesame", 0);
+    run_until(ctx, again, 3, 0, 10000);
+    printf("config: SIGHUP took the file's new token; a broken file left the settings as they were\n");
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
     lws_context_destroy(ctx);
     wsc_free(a);
     wsc_free(b);
-    wsc_free(c);
-    wsc_free(no);
-    printf("config: file settings in effect (int16, token), --max-clients overrode the file\n");
+    wsc_free(newtok);
+    wsc_free(oldtok);
+    wsc_free(again);
 
     /* flags override: a file without model is completed by --model */
     char partial[1200], tmp[1300];
