@@ -42,6 +42,25 @@
 static const char *meshsteerd;
 static harness H;
 
+/* Under ASan or TSan (MESHSTEER_SANITIZED=1, scripts/run.sh) the daemon runs several times
+ * slower: the timing checks then only ask that frames keep coming (a third of the rate, latency
+ * under 5 s), while every functional check stays as it is. */
+static int sanitized;
+
+/* rate must be within tol of want; sanitized, at least a third of want */
+#define ASSERT_RATE(rate, want, tol)                                                               \
+    do {                                                                                           \
+        if (sanitized)                                                                             \
+            ASSERT((rate) >= (want) / 3.0);                                                        \
+        else                                                                                       \
+            ASSERT_NEAR(rate, want, tol);                                                          \
+    } while (0)
+
+static double latency_bound_us(void)
+{
+    return sanitized ? 5e6 : 5e5;
+}
+
 typedef struct want {
     wsc *c;
     uint64_t frames;
@@ -70,7 +89,7 @@ static int enough(void *ud)
 static void run_until(struct lws_context *ctx, wsc *c, uint64_t frames, int texts, int ms)
 {
     want w = {c, frames, texts, 0, 0, -1};
-    if (!wsc_run(ctx, ms, enough, &w)) {
+    if (!wsc_run(ctx, sanitized ? 4 * ms : ms, enough, &w)) {
         fprintf(stderr, "timeout: %llu/%llu frames, %d/%d texts, closed %d (%s)\n",
                 (unsigned long long)c->total_frames, (unsigned long long)frames, c->ntexts, texts,
                 c->closed, c->error);
@@ -221,12 +240,12 @@ static void scenario_stream(void)
             ASSERT(f->t_capture > A->frames[i - 1].t_capture);
         }
         ASSERT(f->t_capture <= f->t_synth && f->t_synth <= f->t_send && f->t_send <= f->t_recv);
-        ASSERT_NEAR_I((double)(f->t_recv - f->t_capture), 0, 500000, i); /* under 0.5 s */
+        ASSERT_NEAR_I((double)(f->t_recv - f->t_capture), 0, latency_bound_us(), i); /* under 0.5 s */
     }
     double span = (double)(A->frames[A->nframes - 1].t_capture - A->frames[0].t_capture) * 1e-6;
     double rate = (double)(A->frames[A->nframes - 1].seq - A->frames[0].seq) / span;
     printf("stream: %d frames at %.1f Hz (source 30 Hz), %d vertices\n", A->nframes, rate, A->nv);
-    ASSERT_NEAR(rate, 30, 3);
+    ASSERT_RATE(rate, 30, 3);
 
     /* both encodings decode to the same mesh within the stated bound */
     double worst = 0;
@@ -359,7 +378,7 @@ static void scenario_slow(void)
         ASSERT_INT_EQ(harness_metric_family(&H, "meshsteer_client_skipped_frames_total", per, 8), 1);
         printf("slow: one client keeping up skipped %llu frames by its headers, %.0f by /metrics\n",
                (unsigned long long)seen, per[0]);
-        ASSERT(seen <= 2);
+        ASSERT(seen <= (sanitized ? 30u : 2u));
         ASSERT(per[0] >= (double)seen);
         ASSERT(per[0] <= (double)seen + 1); /* at most the one superseded since its last write */
     }
@@ -380,9 +399,9 @@ static void scenario_slow(void)
     printf("slow: fast client %.1f frames/s while 4 clients never read; daemon RSS %ld -> %ld kB; "
            "fast client skipped %llu; daemon counted %.0f skipped frames in all\n",
            240 / secs, rss0, rss1, (unsigned long long)skipped, drops);
-    ASSERT(240 / secs > 27);        /* the fast client keeps the source's 30 Hz */
-    ASSERT(skipped <= 2);           /* and misses nothing */
-    ASSERT(rss1 - rss0 < 8 * 1024); /* bounded: < 8 MB growth over 240 frames of 4 stalled clients */
+    ASSERT(240 / secs > (sanitized ? 10 : 27)); /* the fast client keeps the source's 30 Hz */
+    ASSERT(skipped <= (sanitized ? 30u : 2u)); /* and misses (nearly) nothing */
+    ASSERT(rss1 - rss0 < (sanitized ? 32 : 8) * 1024); /* bounded: < 8 MB growth over 240 frames of 4 stalled clients (ASan keeps freed memory in quarantine) */
     /* each stalled client is counted as skipping (nearly) every frame of the 8 s: >= 200 of 240 */
     double per[8];
     int nper = harness_metric_family(&H, "meshsteer_client_skipped_frames_total", per, 8);
@@ -560,7 +579,7 @@ static void scenario_idle(void)
     double secs = (double)(wsc_now_us() - t0) * 1e-6;
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_closed_idle_total"), 1);
     printf("idle: stalled client closed after %.1f s (timeout 2 s)\n", secs);
-    ASSERT(secs >= 2.0 && secs < 6.0);
+    ASSERT(secs >= 2.0 && secs < (sanitized ? 20.0 : 6.0));
     ASSERT(harness_log_has(&H, "accepted no frame for 2 s"));
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients"), 1);
     /* the reading client was never idle and keeps streaming */
@@ -1012,14 +1031,14 @@ static void scenario_horse(const char *meshsteer)
             ASSERT(f->t_capture > A->frames[i - 1].t_capture);
         }
         ASSERT(f->t_capture <= f->t_synth && f->t_synth <= f->t_send && f->t_send <= f->t_recv);
-        ASSERT_NEAR_I((double)(f->t_recv - f->t_capture), 0, 500000, i);
+        ASSERT_NEAR_I((double)(f->t_recv - f->t_capture), 0, latency_bound_us(), i);
     }
     const wsc_frame *first = &A->frames[0], *last = &A->frames[A->nframes - 1];
     double span = (double)(last->t_capture - first->t_capture) * 1e-6;
     double rate = (double)(last->seq - first->seq) / span;
     printf("horse: %d frames at %.1f Hz (source 60 Hz), %d vertices, %d faces\n", A->nframes, rate,
            A->nv, A->nf);
-    ASSERT_NEAR(rate, 60, 6);
+    ASSERT_RATE(rate, 60, 6);
 
     /* each frame against the ground truth of the marker frame it came from (found by its
      * markers, which the daemon passes through unchanged) */
@@ -1098,6 +1117,7 @@ static void kill_daemon(void)
 
 int main(int argc, char **argv)
 {
+    sanitized = getenv("MESHSTEER_SANITIZED") && getenv("MESHSTEER_SANITIZED")[0] == '1';
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
                         "stream|slow|record|limits|origin|idle|config|labels|horse [MESHSTEER]\n");
