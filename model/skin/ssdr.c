@@ -70,6 +70,13 @@ void mdl__ssdr_destroy(mdl__ssdr *s)
     free(s->sup_w);
     free(s->sup_ubar);
     free(s->sup_w2);
+    free(s->B);
+    free(s->C);
+    free(s->vvt);
+    free(s->cadj);
+    free(s->cnum);
+    free(s->Xt);
+    free(s->mark);
     free(s);
 }
 
@@ -112,7 +119,14 @@ int mdl__ssdr_create(const mdl_meshseq *seq, const int *frames, int nf, const fl
     s->sup_w = mdl__calloc(NK, sizeof *s->sup_w);
     s->sup_ubar = mdl__calloc(3 * (size_t)nb, sizeof *s->sup_ubar);
     s->sup_w2 = mdl__calloc(nb, sizeof *s->sup_w2);
-    if (!s->U || !s->X || !s->vv || !s->T || !s->bone || !s->w || !s->M || !s->G || !s->Yw ||
+    s->B = mdl__calloc(3 * (size_t)nf * L, sizeof *s->B);
+    s->C = mdl__calloc((size_t)nb * nb * 16, sizeof *s->C);
+    s->vvt = mdl__calloc(nf, sizeof *s->vvt);
+    s->cadj = mdl__calloc((size_t)nb * nb, sizeof *s->cadj);
+    s->cnum = mdl__calloc(nb, sizeof *s->cnum);
+    s->Xt = mdl__calloc((size_t)nv * 3 * nf, sizeof *s->Xt);
+    s->mark = mdl__calloc(W * 3 * nb, sizeof *s->mark);
+    if (!s->Xt || !s->mark || !s->B || !s->C || !s->vvt || !s->cadj || !s->cnum ||!s->U || !s->X || !s->vv || !s->T || !s->bone || !s->w || !s->M || !s->G || !s->Yw ||
         !s->Rw || !s->Sw || !s->new_bone || !s->new_w || !s->label || !s->verr || !s->ferr ||
         !s->fmax || !s->sup_off || !s->sup_v || !s->sup_w || !s->sup_ubar || !s->sup_w2) {
         mdl__ssdr_destroy(s);
@@ -128,7 +142,9 @@ int mdl__ssdr_create(const mdl_meshseq *seq, const int *frames, int nf, const fl
             for (int a = 0; a < 3; a++) {
                 double x = V[3 * i + a];
                 X0[i + (size_t)nv * a] = x;
+                s->Xt[(3 * (size_t)t + a) + 3 * (size_t)nf * i] = x;
                 s->vv[i] += x * x;
+                s->vvt[t] += x * x;
             }
     }
     for (int t = 0; t < nf; t++)
@@ -200,25 +216,23 @@ int mdl_skin_fit(const mdl_meshseq *seq, const int *frames, int n, const mdl_ski
     if (rc)
         return rc;
     s->trans_sweeps = o->transform_sweeps;
-    if (o->smooth > 0) {
-        rc = mdl__graph_init(&g, nv, seq->F, seq->nf, err);
-        if (rc)
-            goto fail;
-        s->g_off = g.off;
-        s->g_nbr = g.nbr;
-        s->smooth = o->smooth * n * diag * diag;
-    }
+    rc = mdl__graph_init(&g, nv, seq->F, seq->nf, err);
+    if (rc)
+        goto fail;
+    s->g_off = g.off;
+    s->g_nbr = g.nbr;
+    s->smooth = o->smooth * n * diag * diag;
     progress(o, "skin: initialisation", 0);
     rc = mdl__ssdr_init(s, o->init_iterations, err);
     if (rc)
         goto fail;
-    double mx = 0, E = mdl__ssdr_transforms(s, 1, &mx);
+    double mx = 0, E = mdl__ssdr_transforms(s, 1, NULL);
     double rmse = sqrt(E / ((double)nv * n)), prev = rmse;
     int it = 0, stall = 0;
     for (; it < o->iterations; it++) {
         progress(o, "skin: fitting", (double)it / o->iterations);
         mdl__ssdr_weights(s);
-        E = mdl__ssdr_transforms(s, o->transform_sweeps, &mx);
+        E = mdl__ssdr_transforms(s, o->transform_sweeps, it + 1 == o->iterations ? &mx : NULL);
         rmse = sqrt(E / ((double)nv * n));
         stall = prev - rmse < o->tolerance * prev ? stall + 1 : 0;
         prev = rmse;
@@ -228,6 +242,8 @@ int mdl_skin_fit(const mdl_meshseq *seq, const int *frames, int n, const mdl_ski
         }
     }
     progress(o, "skin: fitting", 1);
+    if (!(mx > 0)) /* the exact residuals, for the largest error */
+        E = mdl__ssdr_transforms(s, 0, &mx), rmse = sqrt(E / ((double)nv * n));
 
     struct mdl_skin *k = mdl__calloc(1, sizeof *k);
     if (!k) {

@@ -30,7 +30,10 @@
  *   (A^T A)_jk = p~^T G_jk p~,  G = M^T M   (4nb x 4nb; M is 3F x 4nb, M[(3t+a), 4j+b] =
  *                                            [R_j^t | T_j^t]_ab), the same for every vertex;
  *   (A^T v)_j = sum_b (X M)_{i, 4j+b} p~_b  (one matrix product for all vertices).
- * So a weight sweep is one dgemm plus small per-vertex solves, as in Le & Deng's fast update.
+ * Only the candidate bones of a vertex enter its solve: those with a non-zero weight at the
+ * vertex or at one of its mesh neighbours (so a bone's influence grows by one ring per
+ * iteration, from the clusters of the initialisation), which bounds the per-vertex cost by the
+ * local bone count instead of nb.
  *
  * Parallelism: model/ creates no threads. The caller may pass a parallel-for (mdl_skin_opts);
  * work is split into fixed blocks (vertex blocks of SSDR_BLOCK, or single frames) whose results
@@ -74,6 +77,13 @@ typedef struct mdl__ssdr {
     int *sup_off, *sup_v;
     double *sup_w, *sup_ubar, *sup_w2; /* sup_ubar: nb x 3 (sum w^2 p / sum w^2), sup_w2: nb */
     int trans_sweeps;
+    /* the fast transform update (ssdr_transforms.c): B = sum_i w_ij v_i p~_i^T
+     * (3nf x 4nb, as M), C (nb x nb x 16, C[(j nb + k) 16 + 4b + d]) = sum_i w_ij w_ik p~_b p~_d,
+     * cadj (nb x nb) the bones k != j with C_jk != 0 (cnum of them), vvt (nf) sum_i |v_i^t|^2 */
+    double *B, *C, *vvt;
+    double *Xt;     /* 3nf x nv, column-major (ld 3nf): the frames of one vertex contiguous */
+    int *mark;      /* workers x 3nb: candidate stamps, list and local index (weight update) */
+    int *cadj, *cnum;
 } mdl__ssdr;
 
 /* Allocates the solver for nb bones and K influences over the frames `frames` of seq with the
@@ -92,7 +102,9 @@ int mdl__ssdr_init(mdl__ssdr *s, int iterations, char *err);
 
 /* ssdr_transforms.c: `sweeps` passes of the per-bone Procrustes update over every frame with the
  * weights fixed; returns E (the squared error summed over frames and vertices) after the update,
- * and *max_sq the largest squared vertex error. Rebuilds the bone supports from w first. */
+ * and, when max_sq is not NULL, the largest squared vertex error (an extra explicit pass).
+ * Rebuilds the bone supports from w first. Works on the sums B, C (Le & Deng's fast update):
+ * a sweep costs O(nb^2) per frame, independent of the vertex count. */
 double mdl__ssdr_transforms(mdl__ssdr *s, int sweeps, double *max_sq);
 /* The same for one frame t only with residual scratch r (nv x 3); returns its E. */
 double mdl__ssdr_transforms_frame(mdl__ssdr *s, int t, int sweeps, double *r, double *max_sq);

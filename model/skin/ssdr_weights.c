@@ -257,6 +257,7 @@ void mdl__ssdr_block_cd(mdl__ssdr *s, int i0, int i1, double *y, double *c, doub
 
 typedef struct vctx {
     const mdl__ssdr *s;
+    const int *cand; /* local index -> bone */
     double pt[4];
     double lam;
 } vctx;
@@ -264,20 +265,21 @@ typedef struct vctx {
 static double vq(void *ctx, int j, int k)
 {
     vctx *v = ctx;
-    return mdl__ssdr_q(v->s, v->pt, j, k) + (j == k ? v->lam : 0);
+    return mdl__ssdr_q(v->s, v->pt, v->cand[j], v->cand[k]) + (j == k ? v->lam : 0);
 }
 
-/* w^T Q w - 2 c^T w over K slots */
-static double objective(vctx *v, const double *c, const int *b, const double *w, int K)
+/* w^T Q w - 2 c^T w over K slots (bones mapped to local indices by loc) */
+static double objective(vctx *v, const double *c, const int *loc, const int *b, const double *w,
+                        int K)
 {
     double e = 0;
     for (int p = 0; p < K; p++) {
         if (w[p] == 0)
             continue;
-        e -= 2 * c[b[p]] * w[p];
+        e -= 2 * c[loc[b[p]]] * w[p];
         for (int q = 0; q < K; q++)
             if (w[q] != 0)
-                e += w[p] * w[q] * vq(v, b[p], b[q]);
+                e += w[p] * w[q] * vq(v, loc[b[p]], loc[b[q]]);
     }
     return e;
 }
@@ -285,33 +287,72 @@ static double objective(vctx *v, const double *c, const int *b, const double *w,
 static void weights_block(void *ctx, int bi, int worker)
 {
     mdl__ssdr *s = ctx;
-    int nb = s->nb, K = s->K;
+    int nb = s->nb, K = s->K, ld = 3 * s->nf;
     int i0 = bi * SSDR_BLOCK, i1 = i0 + SSDR_BLOCK < s->nv ? i0 + SSDR_BLOCK : s->nv;
-    double *y = s->Yw + (size_t)worker * SSDR_BLOCK * 4 * nb;
     double *S = s->Sw + (size_t)worker * s->sw_len;
-    double *c = S, *scratch = c + (size_t)SSDR_BLOCK * nb, *cv = scratch + mdl__ssdr_nnls_scratch(nb);
-    mdl__ssdr_block_cd(s, i0, i1, y, c, NULL);
+    double *cv = S, *scratch = cv + nb;
+    int *stamp = s->mark + (size_t)worker * 3 * nb, *cand = stamp + nb, *loc = cand + nb;
     for (int i = i0; i < i1; i++) {
-        vctx v = {s, {s->U[3 * i], s->U[3 * i + 1], s->U[3 * i + 2], 1}, 0};
-        memcpy(cv, c + (size_t)(i - i0) * nb, (size_t)nb * sizeof *cv);
+        /* the candidates: bones weighted at i or at a neighbour */
+        int nc = 0;
+        for (int e = s->g_off ? s->g_off[i] - 1 : -1; e < (s->g_off ? s->g_off[i + 1] : 0); e++) {
+            int u = e < (s->g_off ? s->g_off[i] : 0) ? i : s->g_nbr[e];
+            for (int q = 0; q < K; q++) {
+                int j = s->bone[(size_t)K * u + q];
+                if (s->w[(size_t)K * u + q] > 0 && stamp[j] != i + 1) {
+                    stamp[j] = i + 1;
+                    loc[j] = nc;
+                    cand[nc++] = j;
+                }
+            }
+        }
+        /* c_j = sum_b p~_b (Xt[:, i] . M[:, 4j + b]) */
+        const double *x = s->Xt + (size_t)ld * i, *u = s->U + 3 * (size_t)i;
+        vctx v = {s, cand, {u[0], u[1], u[2], 1}, 0};
+        for (int n = 0; n < nc; n++) {
+            const double *m0 = s->M + (size_t)ld * 4 * cand[n];
+            double a0 = 0, a1 = 0, a2 = 0, a3 = 0, b0 = 0, b1 = 0, b2 = 0, b3 = 0;
+            int r = 0;
+            for (; r + 1 < ld; r += 2) {
+                a0 += x[r] * m0[r];
+                a1 += x[r] * m0[r + ld];
+                a2 += x[r] * m0[r + 2 * (size_t)ld];
+                a3 += x[r] * m0[r + 3 * (size_t)ld];
+                b0 += x[r + 1] * m0[r + 1];
+                b1 += x[r + 1] * m0[r + 1 + ld];
+                b2 += x[r + 1] * m0[r + 1 + 2 * (size_t)ld];
+                b3 += x[r + 1] * m0[r + 1 + 3 * (size_t)ld];
+            }
+            for (; r < ld; r++) {
+                a0 += x[r] * m0[r];
+                a1 += x[r] * m0[r + ld];
+                a2 += x[r] * m0[r + 2 * (size_t)ld];
+                a3 += x[r] * m0[r + 3 * (size_t)ld];
+            }
+            cv[n] = (a0 + b0) * v.pt[0] + (a1 + b1) * v.pt[1] + (a2 + b2) * v.pt[2] + (a3 + b3);
+        }
         if (s->smooth > 0 && s->g_off && s->g_off[i + 1] > s->g_off[i]) {
             int deg = s->g_off[i + 1] - s->g_off[i];
             v.lam = s->smooth;
             for (int e = s->g_off[i]; e < s->g_off[i + 1]; e++) {
-                int u = s->g_nbr[e];
+                int nu = s->g_nbr[e];
                 for (int q = 0; q < K; q++)
-                    cv[s->bone[(size_t)K * u + q]] += s->smooth * s->w[(size_t)K * u + q] / deg;
+                    if (s->w[(size_t)K * nu + q] > 0)
+                        cv[loc[s->bone[(size_t)K * nu + q]]] +=
+                            s->smooth * s->w[(size_t)K * nu + q] / deg;
             }
         }
         double dmax = 0;
-        for (int j = 0; j < nb; j++) {
-            double dj = vq(&v, j, j);
+        for (int n = 0; n < nc; n++) {
+            double dj = vq(&v, n, n);
             if (dj > dmax)
                 dmax = dj;
         }
         int *ob = s->new_bone + (size_t)K * i;
         double *ow = s->new_w + (size_t)K * i;
-        int cnt = mdl__ssdr_nnls(nb, cv, vq, &v, K, 1e-12 * dmax, scratch, ob, ow);
+        int cnt = mdl__ssdr_nnls(nc, cv, vq, &v, K, 1e-12 * dmax, scratch, ob, ow);
+        for (int q = 0; q < cnt; q++)
+            ob[q] = cand[ob[q]];
         for (int q = cnt; q < K; q++) {
             ob[q] = ob[0];
             ow[q] = 0;
@@ -320,7 +361,7 @@ static void weights_block(void *ctx, int bi, int worker)
          * previous ones, so that the error of the alternation cannot grow. */
         const int *pb = s->bone + (size_t)K * i;
         const double *pw = s->w + (size_t)K * i;
-        if (objective(&v, cv, pb, pw, K) < objective(&v, cv, ob, ow, K)) {
+        if (objective(&v, cv, loc, pb, pw, K) < objective(&v, cv, loc, ob, ow, K)) {
             memcpy(ob, pb, (size_t)K * sizeof *ob);
             memcpy(ow, pw, (size_t)K * sizeof *ow);
         }
@@ -330,6 +371,8 @@ static void weights_block(void *ctx, int bi, int worker)
 void mdl__ssdr_weights(mdl__ssdr *s)
 {
     mdl__ssdr_normal_setup(s);
+    for (int q = 0; q < s->workers * s->nb; q++)
+        s->mark[(size_t)3 * s->nb * (q / s->nb) + q % s->nb] = 0;
     mdl__ssdr_parallel(s, (s->nv + SSDR_BLOCK - 1) / SSDR_BLOCK, weights_block, s);
     size_t nk = (size_t)s->nv * s->K;
     memcpy(s->bone, s->new_bone, nk * sizeof *s->bone);
