@@ -314,6 +314,8 @@ typedef struct mdl_eval_result {
     int nan_count;           /* non-finite output coordinates */
     int markers_dropped;
     int frames_skipped;      /* frames the model could not synthesise (no reference yet) */
+    double rmse;             /* root mean square vertex error, mesh units (0: not computed) */
+    double rmse_over_diag;   /* rmse over the rest box diagonal */
     double *synth_us;        /* per frame synthesis time, allocated (frames) */
     double *frame_err;       /* per frame mean error, allocated (frames) */
     double *baseline_frame_err;
@@ -324,6 +326,64 @@ typedef struct mdl_eval_result {
 int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, int n,
                  const mdl_eval_opts *o, mdl_eval_result *r, char *err);
 void mdl_eval_result_fini(mdl_eval_result *r);
+
+/* ------------------------------------------------------------------ the skin (Le & Deng 2012, skin/) */
+
+/* A parallel-for supplied by the caller (model/ creates no threads): run body(ctx, i, worker) for
+ * every i in [0, n), each exactly once, with worker in [0, workers) and no two concurrent calls
+ * sharing a worker index; return when all are done. */
+typedef void (*mdl_parallel_body)(void *ctx, int i, int worker);
+typedef void (*mdl_parallel_fn)(void *ud, int n, mdl_parallel_body body, void *ctx);
+
+typedef struct mdl_skin_opts {
+    int bones;             /* N, the number of bones (rigid transforms per frame) */
+    int max_influences;    /* K, non-zero weights per vertex at most */
+    int iterations;        /* alternations at most (weights, then transforms) */
+    double tolerance;      /* stop when the RMSE improved by less than this fraction ... */
+    int patience;          /* ... this many times in a row */
+    int init_iterations;   /* label/transform iterations after each split of the initialisation */
+    int transform_sweeps;  /* per-bone Procrustes passes per alternation */
+    double smooth;         /* weight smoothness over the mesh edges (0: off), relative: the
+                              penalty is smooth * frames * diag^2 * |w_i - mean of neighbours|^2 */
+    uint64_t seed;         /* recorded; the fit makes no random choices (it is deterministic) */
+    const float *rest;     /* nv x 3 rest pose, or NULL for the first fitted frame */
+    const char *name;      /* model name */
+    int workers;           /* the parallel-for's worker count (1 without one) */
+    mdl_parallel_fn parallel; /* NULL: serial */
+    void *parallel_ud;
+    mdl_progress_fn progress;
+    void *progress_ud;
+} mdl_skin_opts;
+
+/* bones 20, max_influences 4, iterations 100, tolerance 1e-3, patience 3, init_iterations 5,
+ * transform_sweeps 2, smooth 0, seed 1, serial. */
+void mdl_skin_opts_default(mdl_skin_opts *o);
+
+typedef struct mdl_skin_stats {
+    int bones, max_influences, frames, vertices, iterations;
+    double rmse;           /* root mean square vertex error over the fitted frames, mesh units */
+    double rmse_over_diag; /* over the rest mesh's bounding-box diagonal */
+    double max_err;        /* the largest vertex error, mesh units */
+    double diag;           /* the rest box diagonal */
+    double seconds;        /* wall time of the fit */
+} mdl_skin_stats;
+
+/* Fits a skin to frames[0..n) of seq: a model whose primary kind is MDL_KIND_SKIN, over the rest
+ * pose (o->rest or the first fitted frame) and seq's faces. Its synthesis (MDL_INPUT_CLOCK) plays
+ * the fitted bone animation, looping at seq->fps (30 when unknown); its eval fits the bone
+ * transforms of other frames with the weights fixed. -EDOM when the mesh cannot support
+ * o->bones bones (fewer vertices than 3 per bone). */
+int mdl_skin_fit(const mdl_meshseq *seq, const int *frames, int n, const mdl_skin_opts *o,
+                 mdl_model **out, char *err);
+/* The fit's figures; -ENOENT when m holds no skin. */
+int mdl_skin_get_stats(const mdl_model *m, mdl_skin_stats *st);
+/* The skin's weights as K slots per vertex (bone index, weight; unused slots weight 0) and its
+ * bone transforms of fitted frame f (nb x 12: R row-major, then t); pointers valid while m lives. */
+int mdl_skin_get(const mdl_model *m, int *nb, int *K, int *nframes, const int **bone,
+                 const double **w, const double **T);
+/* glTF 2.0 binary (.glb, gltf.c): the rest mesh, one joint per bone, JOINTS_0/WEIGHTS_0 and one
+ * animation (translation + rotation per bone per fitted frame). Needs K <= 4. */
+int mdl_skin_write_gltf(const mdl_model *m, const char *path, char *err);
 
 /* A Python-style slice (frames.c) "start:stop[:step]" (also "N" and ":"), resolved against `count`.
  * Allocates *idx. */

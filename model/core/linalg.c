@@ -7,6 +7,7 @@
 #include <cblas.h>
 #include <errno.h>
 #include <lapacke.h>
+#include <math.h>
 #include <stdlib.h>
 
 static enum CBLAS_TRANSPOSE tr(char t)
@@ -82,6 +83,25 @@ int mdl_la_potrs1(int n, const double *U, int ldu, double *b)
         for (int c = i + 1; c < n; c++)
             v -= U[i + (size_t)c * ldu] * b[c];
         b[i] = v / U[i + (size_t)i * ldu];
+    }
+    return 0;
+}
+
+int mdl_la_potrf1(int n, double *A, int lda)
+{
+    for (int j = 0; j < n; j++) {
+        for (int i = 0; i <= j; i++) {
+            double v = A[i + (size_t)j * lda];
+            for (int r = 0; r < i; r++)
+                v -= A[r + (size_t)i * lda] * A[r + (size_t)j * lda];
+            if (i < j) {
+                A[i + (size_t)j * lda] = v / A[i + (size_t)i * lda];
+            } else {
+                if (!(v > 0))
+                    return MDL_ENUMERIC;
+                A[j + (size_t)j * lda] = sqrt(v);
+            }
+        }
     }
     return 0;
 }

@@ -33,5 +33,9 @@ int mdl_la_potrs(int n, int nrhs, const double *A, int lda, double *B, int ldb, 
  * upper factor U from mdl_la_potrf), for the few-mode systems solved every frame, where the LAPACK
  * call costs more than the arithmetic. Returns MDL_ENUMERIC for a non-positive diagonal. */
 int mdl_la_potrs1(int n, const double *U, int ldu, double *b);
+/* The upper Cholesky factor (A = U^T U, in place, upper triangle) by hand, for the tiny systems
+ * solved once per vertex (skin/ssdr_weights.c) where a LAPACK call costs more than the
+ * arithmetic. Returns MDL_ENUMERIC with the failing pivot not positive. */
+int mdl_la_potrf1(int n, double *A, int lda);
 
 #endif
