@@ -33,6 +33,7 @@
  * picked once in mdl__steer_synth_create; both do the same operations in the same order.
  */
 #include "steer/posefeat.h"
+#include "steer/heading.h"
 #include "core/linalg.h"
 #include "steer/steer_internal.h"
 #include "steer/regress.h"
@@ -829,8 +830,9 @@ int mdl__steer_synth_frame(mdl_steer_synth *s, const float *markers, const uint8
     for (int r = 0; r < m->nref; r++)
         refok &= s->seen[m->ref[r]];
     double R[9], o[3];
-    if (refok && mdl__body_frame(s->P, m->nref, m->ref, m->place_mode ? m->axis_rec : m->axis_mesh,
-                                 R, o) == 0) {
+    if (refok && mdl__body_frame_any(s->P, s->mvalid, nm, m->nref, m->ref,
+                                     m->place_mode ? m->axis_rec : m->axis_mesh,
+                                     m->place_mode ? m->hd_rec : m->hd_mesh, R, o) == 0) {
         memcpy(s->Rb, R, sizeof R);
         memcpy(s->ob, o, sizeof o);
         s->have_body = 1;

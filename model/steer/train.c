@@ -31,6 +31,7 @@
 #include "steer/adapt.h"
 #include "steer/cluster.h"
 #include "steer/posefeat.h"
+#include "steer/heading.h"
 #include "core/meshgraph.h"
 #include "core/linalg.h"
 #include "steer/steer_internal.h"
@@ -271,10 +272,19 @@ static int train_frames(train_state *st, char *err)
                    3 * sizeof(float));
     }
     m->axis_mesh = mdl__ref_axis(st->Pv, T, (size_t)nm * 3, m->ref);
+    if (m->axis_mesh == 1 && m->nref == 2) { /* an upright edge: the heading from all markers */
+        m->hd_mesh = mdl__calloc((size_t)nm * 4, sizeof *m->hd_mesh);
+        if (!m->hd_mesh)
+            return oom(err);
+        int rc = mdl__heading_train(st->Pv, T, (size_t)nm * 3, nm, m->ref, m->hd_mesh);
+        if (rc)
+            return mdl__err(err, rc, "train: the heading fit failed (%d)", rc);
+        m->axis_mesh = MDL_AXIS_FIT;
+    }
     for (int i = 0; i < T; i++) {
         const float *V = st->seq->V + (size_t)st->frames[i] * nv * 3;
-        if (mdl__body_frame(st->Pv + (size_t)i * nm * 3, m->nref, m->ref, m->axis_mesh,
-                            st->Rb + 9 * i, st->ob + 3 * i))
+        if (mdl__body_frame_any(st->Pv + (size_t)i * nm * 3, NULL, nm, m->nref, m->ref, m->axis_mesh,
+                                m->hd_mesh, st->Rb + 9 * i, st->ob + 3 * i))
             return mdl__err(err, -EINVAL, "train: the reference markers coincide in training frame %d",
                             st->frames[i]);
         frame_to_body(V, nv, st->Rb + 9 * i, st->ob + 3 * i, st->X + (size_t)i * nv * 3);
@@ -789,8 +799,17 @@ static int train_recording(train_state *st, char *err)
     }
     free(mk_map);
     m->axis_rec = mdl__ref_axis(st->Pm, FM, (size_t)nm * 3, m->ref);
+    if (m->axis_rec == 1 && m->nref == 2) {
+        m->hd_rec = mdl__calloc((size_t)nm * 4, sizeof *m->hd_rec);
+        if (!m->hd_rec)
+            return oom(err);
+        int rc = mdl__heading_train(st->Pm, FM, (size_t)nm * 3, nm, m->ref, m->hd_rec);
+        if (rc)
+            return mdl__err(err, rc, "train: the recording's heading fit failed (%d)", rc);
+        m->axis_rec = MDL_AXIS_FIT;
+    }
     double R[9], o[3];
-    if (mdl__body_frame(st->Pm, m->nref, m->ref, m->axis_rec, R, o))
+    if (mdl__body_frame_any(st->Pm, NULL, nm, m->nref, m->ref, m->axis_rec, m->hd_rec, R, o))
         return mdl__err(err, -EINVAL, "train: the reference markers coincide in recording frame %d", 0);
     m->rec_heading = mdl__body_heading(R);
     memcpy(m->rec_origin, o, sizeof o);
@@ -830,7 +849,7 @@ static int limb_inputs(train_state *st, int l, reg_scratch *sc, char *err)
         double R[9], o[3];
         for (int i = 0; i < FM; i++) {
             const float *Pi = st->Pm + (size_t)i * nm * 3;
-            if (mdl__body_frame(Pi, m->nref, m->ref, m->axis_rec, R, o))
+            if (mdl__body_frame_any(Pi, NULL, nm, m->nref, m->ref, m->axis_rec, m->hd_rec, R, o))
                 return mdl__err(err, -EINVAL,
                                 "train: the reference markers coincide in recording frame %d",
                                 i * st->stride);
@@ -856,7 +875,7 @@ static int limb_inputs(train_state *st, int l, reg_scratch *sc, char *err)
         for (int i = 0; i < T; i++) {
             const float *Pi = sc->Pn + ((size_t)a * T + i) * nm * 3;
             double R[9], o[3];
-            if (mdl__body_frame(Pi, m->nref, m->ref, m->axis_mesh, R, o)) {
+            if (mdl__body_frame_any(Pi, NULL, nm, m->nref, m->ref, m->axis_mesh, m->hd_mesh, R, o)) {
                 memcpy(R, st->Rb + 9 * i, sizeof R);
                 memcpy(o, st->ob + 3 * i, sizeof o);
             }
