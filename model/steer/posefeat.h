@@ -5,7 +5,9 @@
  * reference triangle crossed with e1, otherwise a fixed world axis, +Y (axis 0) or, for a
  * reference edge that itself points up such as a human's hips-to-neck, +Z (axis 1). The axis is
  * chosen once per marker source (mdl__ref_axis), never per frame: switching per frame would make
- * the frame jump whenever the edge crosses the threshold. e3 = e1 x e2.
+ * the frame jump whenever the edge crosses the threshold. e3 = e1 x e2. For a two-marker edge that
+ * points up the steering model does not use this fixed axis but fits the whole frame to all
+ * markers (heading.h, axis value MDL_AXIS_FIT).
  * R's columns are (e1, e2, e3): world = R * body + o.
  *
  * Features of a limb path p_G = (m_1 .. m_p), all in the body frame:

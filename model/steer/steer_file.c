@@ -12,6 +12,7 @@
  */
 #include "steer/posefeat.h"
 #include "steer/steer_internal.h"
+#include "steer/heading.h"
 #include "formats/chunkio.h"
 #include "kind.h"
 #include "core/util.h"
@@ -66,6 +67,8 @@ void mdl__steer_free(struct mdl_steer *m)
             free(m->reg[l].coef);
         }
     free(m->reg);
+    free(m->hd_mesh);
+    free(m->hd_rec);
     free(m->order);
     free(m->order_ov_off);
     free(m->order_ov);
@@ -100,6 +103,10 @@ void mdl__steer_save(const struct mdl_steer *m, mdl__wbuf *b)
     mdl__put_f64s(b, m->place_o, 3);
     mdl__put_f64(b, m->rec_heading);
     mdl__put_f64s(b, m->rec_origin, 3);
+    if (m->axis_mesh == MDL_AXIS_FIT)
+        mdl__put_f64s(b, m->hd_mesh, 4 * (size_t)m->nmarkers);
+    if (m->axis_rec == MDL_AXIS_FIT)
+        mdl__put_f64s(b, m->hd_rec, 4 * (size_t)m->nmarkers);
     mdl__put_i32s(b, m->train_frames, (size_t)m->ntrain);
     /* parts */
     int P = m->nparts, NI = m->ninst, L = m->nlimbs;
@@ -228,8 +235,8 @@ int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer
     m->marker_weight = mdl__get_f64(b, "marker_weight");
     m->relax = mdl__get_int(b, "relax", 0, 100);
     m->place_mode = mdl__get_int(b, "placement", 0, 1);
-    m->axis_mesh = mdl__get_int(b, "mesh frame axis", 0, 1);
-    m->axis_rec = mdl__get_int(b, "recording frame axis", 0, 1);
+    m->axis_mesh = mdl__get_int(b, "mesh frame axis", 0, v1 ? 1 : MDL_AXIS_FIT);
+    m->axis_rec = mdl__get_int(b, "recording frame axis", 0, v1 ? 1 : MDL_AXIS_FIT);
     {
         double *pr = mdl__get_f64s(b, 9, "place_R"), *po = mdl__get_f64s(b, 3, "place_o");
         m->rec_heading = mdl__get_f64(b, "rec_heading");
@@ -243,6 +250,15 @@ int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer
         free(po);
         free(ro);
     }
+    /* the heading fit (heading.h): after the placement, only for MDL_AXIS_FIT */
+    int nmk = mm && mm->rig ? mm->rig->nmarkers : 0;
+    if ((m->axis_mesh == MDL_AXIS_FIT || m->axis_rec == MDL_AXIS_FIT) && !b->rc &&
+        (nmk < 1 || !mm->rig || mm->rig->nref != 2))
+        mdl__rfail(b, "a fitted heading needs a rig with a two-marker reference edge");
+    if (m->axis_mesh == MDL_AXIS_FIT && !b->rc)
+        m->hd_mesh = mdl__get_f64s(b, 4 * (size_t)nmk, "mesh heading");
+    if (m->axis_rec == MDL_AXIS_FIT && !b->rc)
+        m->hd_rec = mdl__get_f64s(b, 4 * (size_t)nmk, "recording heading");
     if (b->rc)
         goto bad;
     int nv = m->nv;

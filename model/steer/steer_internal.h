@@ -73,7 +73,9 @@ struct mdl_steer {
      * rec_origin) */
     int place_mode;
     int axis_mesh, axis_rec;  /* secondary body-frame axis of the mesh's and the recording's
-                                 reference edge (posefeat.h) */
+                                 reference edge (posefeat.h), or MDL_AXIS_FIT (heading.h) */
+    double *hd_mesh, *hd_rec; /* with MDL_AXIS_FIT: the heading fit's canonical configuration and
+                                 weights, nmarkers x 4 (heading.h); else NULL */
     double place_R[9], place_o[3];
     double rec_heading, rec_origin[3];
 

@@ -33,6 +33,7 @@
  * picked once in mdl__steer_synth_create; both do the same operations in the same order.
  */
 #include "steer/posefeat.h"
+#include "steer/heading.h"
 #include "core/linalg.h"
 #include "steer/steer_internal.h"
 #include "steer/regress.h"
@@ -171,12 +172,262 @@ void mdl__steer_synth_portable(mdl_steer_synth *s)
     s->alternate = alternate_base;
 }
 
+static int synth_oom(char *err)
+{
+    return mdl__err(err, -ENOMEM, "synth: out of memory");
+}
+
+/* Step 1: the per-frame buffers, sized for the largest limb, part and instance count: markers
+ * (this frame, previous, last valid, ever seen, body frame, valid), the regression's features,
+ * design row and outputs (eq. 5), every instance's predicted and current transform, the shape
+ * step's right-hand side (eq. 7) and the blend's accumulators. */
+static int synth_scratch(mdl_steer_synth *s, char *err)
+{
+    const struct mdl_steer *m = s->m;
+    int nm = m->nmarkers, NI = m->ninst, maxd = 1, maxo = 1, maxk = 1, maxx = 1;
+    for (int l = 0; l < m->nlimbs; l++) {
+        if (m->reg[l].nin > maxd)
+            maxd = m->reg[l].nin;
+        if (m->reg[l].nin + m->reg[l].ncent > maxx)
+            maxx = m->reg[l].nin + m->reg[l].ncent;
+        if (m->reg[l].nout > maxo)
+            maxo = m->reg[l].nout;
+    }
+    for (int p = 0; p < m->nparts; p++)
+        if (m->pmodes[p] > maxk)
+            maxk = m->pmodes[p];
+    s->P = mdl__calloc((size_t)nm * 3, sizeof(float));
+    s->Pprev = mdl__calloc((size_t)nm * 3, sizeof(float));
+    s->Plast = mdl__calloc((size_t)nm * 3, sizeof(float));
+    s->seen = mdl__calloc((size_t)nm, 1);
+    s->mb = mdl__calloc((size_t)nm * 3, sizeof(double));
+    s->mvalid = mdl__calloc((size_t)nm, 1);
+    s->feat = mdl__calloc((size_t)maxd, sizeof(double));
+    s->row = mdl__calloc((size_t)maxx, sizeof(double));
+    s->z = mdl__calloc((size_t)maxx + 1, sizeof(double));
+    s->out = mdl__calloc((size_t)maxo, sizeof(double));
+    s->iq = mdl__calloc((size_t)NI * 4, sizeof(double));
+    s->iRp = mdl__calloc((size_t)NI * 9, sizeof(double));
+    s->iR = mdl__calloc((size_t)NI * 9, sizeof(double));
+    s->it = mdl__calloc((size_t)NI * 3, sizeof(double));
+    s->flam = mdl__calloc((size_t)maxk, sizeof(float));
+    s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
+    s->acc = mdl__calloc((size_t)m->nv * 4, sizeof(double));
+    s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
+    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->mb || !s->mvalid || !s->feat || !s->row ||
+        !s->z || !s->out || !s->iq || !s->iRp || !s->iR || !s->it || !s->flam || !s->rhs || !s->acc ||
+        !s->cnt)
+        return synth_oom(err);
+    return 0;
+}
+
+/* Step 2: the vertices held by several instances (the overlap vertices of m->sov), the only ones
+ * the alignment accumulates (Sec. 5.1). */
+static int synth_shared_vertices(mdl_steer_synth *s, char *err)
+{
+    const struct mdl_steer *m = s->m;
+    s->shared = mdl__calloc((size_t)m->nv, sizeof(int));
+    uint8_t *seen = mdl__calloc((size_t)m->nv, 1);
+    if (!s->shared || !seen) {
+        free(seen);
+        return synth_oom(err);
+    }
+    for (int i = 0; i < m->ninst; i++)
+        for (int o = m->sov_off[i]; o < m->sov_off[i + 1]; o++) {
+            int v = m->pv_idx[m->pv_off[m->inst_part[i]] + m->sov[o]];
+            if (!seen[v]) {
+                seen[v] = 1;
+                s->shared[s->nshared++] = v;
+            }
+        }
+    free(seen);
+    return 0;
+}
+
+/* Step 3: per instance, the offsets of its mode coefficients lambda (eq. 6; s->lam, the current
+ * ones, and s->lamp, the regression's prior lambda+) and of its vertices. */
+static int synth_instance_offsets(mdl_steer_synth *s, char *err)
+{
+    const struct mdl_steer *m = s->m;
+    int NI = m->ninst;
+    s->inst_lam = mdl__calloc((size_t)NI + 1, sizeof(int));
+    s->inst_pos = mdl__calloc((size_t)NI + 1, sizeof(int));
+    if (!s->inst_lam || !s->inst_pos)
+        return synth_oom(err);
+    for (int i = 0; i < NI; i++) {
+        int p = m->inst_part[i];
+        s->inst_lam[i + 1] = s->inst_lam[i] + m->pmodes[p];
+        s->inst_pos[i + 1] = s->inst_pos[i] + m->pv_off[p + 1] - m->pv_off[p];
+    }
+    s->lam = mdl__calloc((size_t)s->inst_lam[NI] + 1, sizeof(double));
+    s->lamp = mdl__calloc((size_t)s->inst_lam[NI] + 1, sizeof(double));
+    if (!s->lam || !s->lamp)
+        return synth_oom(err);
+    return 0;
+}
+
+/* Step 4: the blend's structure-of-arrays copies of the part means and modes (eq. 6): per part
+ * n_p rounded up to 8 (s->pn) x, then y, then z, zero padded; the output buffer of every
+ * instance in that layout (s->loc) and its vertices' blend weights of eq. (8) (s->iw). */
+static int synth_soa_layout(mdl_steer_synth *s, char *err)
+{
+    const struct mdl_steer *m = s->m;
+    int np = m->nparts, NI = m->ninst;
+    s->pn = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->smean_off = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->smode_off = mdl__calloc((size_t)np + 1, sizeof(int));
+    s->iloc_off = mdl__calloc((size_t)NI + 1, sizeof(int));
+    if (!s->pn || !s->smean_off || !s->smode_off || !s->iloc_off)
+        return synth_oom(err);
+    for (int p = 0; p < np; p++) {
+        s->pn[p] = (m->pv_off[p + 1] - m->pv_off[p] + 7) & ~7;
+        s->smean_off[p + 1] = s->smean_off[p] + 3 * s->pn[p];
+        s->smode_off[p + 1] = s->smode_off[p] + 3 * s->pn[p] * m->pmodes[p];
+    }
+    for (int i = 0; i < NI; i++)
+        s->iloc_off[i + 1] = s->iloc_off[i] + 3 * s->pn[m->inst_part[i]];
+    s->smean = mdl__calloc((size_t)s->smean_off[np] + 1, sizeof(float));
+    s->smodes = mdl__calloc((size_t)s->smode_off[np] + 1, sizeof(float));
+    s->loc = mdl__calloc((size_t)s->iloc_off[NI] + 1, sizeof(float));
+    s->iw = mdl__calloc((size_t)s->iloc_off[NI] / 3 + 1, sizeof(float));
+    if (!s->smean || !s->smodes || !s->loc || !s->iw)
+        return synth_oom(err);
+    for (int p = 0; p < np; p++) {
+        int n = m->pv_off[p + 1] - m->pv_off[p], n8 = s->pn[p], k = m->pmodes[p];
+        const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
+        for (int j = 0; j < n; j++)
+            for (int c = 0; c < 3; c++)
+                s->smean[s->smean_off[p] + c * n8 + j] = mean[3 * j + c];
+        for (int a = 0; a < k; a++) {
+            const float *va = m->part_modes + m->pm_off[p] + (size_t)a * 3 * n;
+            float *sa = s->smodes + s->smode_off[p] + (size_t)a * 3 * n8;
+            for (int j = 0; j < n; j++)
+                for (int c = 0; c < 3; c++)
+                    sa[c * n8 + j] = va[3 * j + c];
+        }
+    }
+    for (int v = 0; v < m->nv; v++)
+        for (int b = m->blend_off[v]; b < m->blend_off[v + 1]; b++)
+            s->iw[s->iloc_off[m->blend_inst[b]] / 3 + m->blend_local[b]] = m->blend_w[b];
+    return 0;
+}
+
+/* Step 5: the blend lists (Sec. 5.3): per instance first the vertices it alone gives the output
+ * (written), then those it shares (added), as local index and output vertex; and the output
+ * vertices not given by one instance alone (cleared before the blend). */
+static int synth_blend_lists(mdl_steer_synth *s, char *err)
+{
+    const struct mdl_steer *m = s->m;
+    int NI = m->ninst;
+    s->bl_off = mdl__calloc((size_t)2 * NI + 1, sizeof(int));
+    s->bl_j = mdl__calloc((size_t)s->inst_pos[NI] + 1, sizeof(int));
+    s->bl_v = mdl__calloc((size_t)s->inst_pos[NI] + 1, sizeof(int));
+    s->zero = mdl__calloc((size_t)m->nv + 1, sizeof(int));
+    uint8_t *alone = mdl__calloc((size_t)m->nv + 1, 1);
+    if (!s->bl_off || !s->bl_j || !s->bl_v || !s->zero || !alone) {
+        free(alone);
+        return synth_oom(err);
+    }
+    int e = 0;
+    for (int i = 0; i < NI; i++) {
+        int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
+        const int *idx = m->pv_idx + m->pv_off[p];
+        for (int pass = 0; pass < 2; pass++) {
+            s->bl_off[2 * i + pass] = e;
+            for (int j = 0; j < n; j++) {
+                int v = idx[j], b = m->blend_off[v];
+                int only = m->blend_off[v + 1] - b == 1 && m->blend_inst[b] == i && m->blend_local[b] == j;
+                if (only != (pass == 0))
+                    continue;
+                alone[v] |= (uint8_t)only;
+                s->bl_j[e] = j;
+                s->bl_v[e++] = v;
+            }
+        }
+    }
+    s->bl_off[2 * NI] = e;
+    for (int v = 0; v < m->nv; v++)
+        if (!alone[v])
+            s->zero[s->nzero++] = v;
+    free(alone);
+    return 0;
+}
+
+/* Step 6: the markers on every instance (alignment targets when the markers live in the mesh's
+ * space, Sec. 5.1 and ours): local vertex and marker index, and room for the marker vertex's
+ * local shape. */
+static int synth_marker_entries(mdl_steer_synth *s, char *err)
+{
+    const struct mdl_steer *m = s->m;
+    int nm = m->nmarkers, NI = m->ninst;
+    s->imk_off = mdl__calloc((size_t)NI + 1, sizeof(int));
+    s->imk_local = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
+    s->imk_marker = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
+    s->mloc = mdl__calloc((size_t)NI * nm * 3 + 1, sizeof(double));
+    if (!s->imk_off || !s->imk_local || !s->imk_marker || !s->mloc)
+        return synth_oom(err);
+    int e = 0;
+    for (int i = 0; i < NI; i++) {
+        int p = m->inst_part[i];
+        for (int mk = 0; mk < nm; mk++)
+            for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
+                if (m->pv_idx[j] == m->markers[mk].vertex) {
+                    s->imk_local[e] = j - m->pv_off[p];
+                    s->imk_marker[e++] = mk;
+                    break;
+                }
+        s->imk_off[i + 1] = e;
+    }
+    return 0;
+}
+
+/* Step 7: the overlap entries of eq. (7) (m->sov, per instance sov_off) in compact arrays: global
+ * vertex, 1 / (number of other instances holding it), room for local shape and placed position;
+ * and the greedy order's overlap (m->order_ov, Sec. 5.1) as entries of them. */
+static int synth_overlap_entries(mdl_steer_synth *s, char *err)
+{
+    const struct mdl_steer *m = s->m;
+    int NI = m->ninst, nsov = m->sov_off[NI];
+    s->sov_v = mdl__calloc((size_t)nsov + 1, sizeof(int));
+    s->sov_inv = mdl__calloc((size_t)nsov + 1, sizeof(double));
+    s->sloc = mdl__calloc((size_t)nsov * 4 + 1, sizeof(double));
+    s->spos = mdl__calloc((size_t)nsov * 4 + 1, sizeof(double));
+    s->oov_e = mdl__calloc((size_t)m->order_ov_off[NI] + 1, sizeof(int));
+    s->ymom = mdl__calloc((size_t)NI * 4, sizeof(double));
+    int *ctot = mdl__calloc((size_t)m->nv, sizeof(int));
+    if (!s->sov_v || !s->sov_inv || !s->sloc || !s->spos || !s->oov_e || !s->ymom || !ctot) {
+        free(ctot);
+        return synth_oom(err);
+    }
+    for (int i = 0; i < NI; i++)
+        for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
+            s->sov_v[e] = m->pv_idx[m->pv_off[m->inst_part[i]] + m->sov[e]];
+            ctot[s->sov_v[e]]++;
+        }
+    for (int e = 0; e < nsov; e++)
+        s->sov_inv[e] = ctot[s->sov_v[e]] > 1 ? 1.0 / (ctot[s->sov_v[e]] - 1) : 0;
+    free(ctot);
+    for (int step = 0; step < NI; step++) { /* order_ov is a subset of sov (train.c) */
+        int i = m->order[step];
+        for (int o = m->order_ov_off[step]; o < m->order_ov_off[step + 1]; o++) {
+            int e = m->sov_off[i];
+            while (e < m->sov_off[i + 1] && m->sov[e] != m->order_ov[o])
+                e++;
+            if (e == m->sov_off[i + 1])
+                return mdl__err(err, -EINVAL, "synth: model's greedy overlap vertex %d of instance %d "
+                                "is not among its overlap vertices", m->order_ov[o], i);
+            s->oov_e[o] = e;
+        }
+    }
+    return 0;
+}
+
 int mdl__steer_synth_create(const struct mdl_steer *m, mdl_steer_synth **out, char *err)
 {
     *out = NULL;
     mdl_steer_synth *s = mdl__calloc(1, sizeof *s);
     if (!s)
-        return mdl__err(err, -ENOMEM, "synth: out of memory");
+        return synth_oom(err);
     s->m = m;
     s->place = blend_place4;
     s->alternate = alternate_base;
@@ -187,193 +438,13 @@ int mdl__steer_synth_create(const struct mdl_steer *m, mdl_steer_synth **out, ch
         s->alternate = alternate_avx2;
     }
 #endif
-    int nm = m->nmarkers, NI = m->ninst, maxd = 1, maxo = 1, maxk = 1, maxn = 1, maxx = 1;
-    for (int l = 0; l < m->nlimbs; l++) {
-        if (m->reg[l].nin > maxd)
-            maxd = m->reg[l].nin;
-        if (m->reg[l].nin + m->reg[l].ncent > maxx)
-            maxx = m->reg[l].nin + m->reg[l].ncent;
-        if (m->reg[l].nout > maxo)
-            maxo = m->reg[l].nout;
-    }
-    for (int p = 0; p < m->nparts; p++) {
-        if (m->pmodes[p] > maxk)
-            maxk = m->pmodes[p];
-        if (m->pv_off[p + 1] - m->pv_off[p] > maxn)
-            maxn = m->pv_off[p + 1] - m->pv_off[p];
-    }
-    s->P = mdl__calloc((size_t)nm * 3, sizeof(float));
-    s->Pprev = mdl__calloc((size_t)nm * 3, sizeof(float));
-    s->Plast = mdl__calloc((size_t)nm * 3, sizeof(float));
-    s->seen = mdl__calloc((size_t)nm, 1);
-    s->feat = mdl__calloc((size_t)maxd, sizeof(double));
-    s->row = mdl__calloc((size_t)maxx, sizeof(double));
-    s->z = mdl__calloc((size_t)maxx + 1, sizeof(double));
-    s->out = mdl__calloc((size_t)maxo, sizeof(double));
-    s->iq = mdl__calloc((size_t)NI * 4, sizeof(double));
-    s->iRp = mdl__calloc((size_t)NI * 9, sizeof(double));
-    s->shared = mdl__calloc((size_t)m->nv, sizeof(int));
-    if (s->shared) {
-        uint8_t *seen = mdl__calloc((size_t)m->nv, 1);
-        if (!seen) {
-            free(s->shared);
-            s->shared = NULL;
-        } else {
-            for (int i = 0; i < NI; i++)
-                for (int o = m->sov_off[i]; o < m->sov_off[i + 1]; o++) {
-                    int v = m->pv_idx[m->pv_off[m->inst_part[i]] + m->sov[o]];
-                    if (!seen[v]) {
-                        seen[v] = 1;
-                        s->shared[s->nshared++] = v;
-                    }
-                }
-            free(seen);
-        }
-    }
-    s->iR = mdl__calloc((size_t)NI * 9, sizeof(double));
-    s->it = mdl__calloc((size_t)NI * 3, sizeof(double));
-    s->inst_lam = mdl__calloc((size_t)NI + 1, sizeof(int));
-    s->inst_pos = mdl__calloc((size_t)NI + 1, sizeof(int));
-    if (s->inst_lam && s->inst_pos)
-        for (int i = 0; i < NI; i++) {
-            int p = m->inst_part[i];
-            s->inst_lam[i + 1] = s->inst_lam[i] + m->pmodes[p];
-            s->inst_pos[i + 1] = s->inst_pos[i] + m->pv_off[p + 1] - m->pv_off[p];
-        }
-    s->lam = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
-    s->lamp = mdl__calloc((size_t)(s->inst_lam ? s->inst_lam[NI] : 0) + 1, sizeof(double));
-    int np = m->nparts;
-    s->pn = mdl__calloc((size_t)np + 1, sizeof(int));
-    s->smean_off = mdl__calloc((size_t)np + 1, sizeof(int));
-    s->smode_off = mdl__calloc((size_t)np + 1, sizeof(int));
-    s->iloc_off = mdl__calloc((size_t)NI + 1, sizeof(int));
-    if (s->pn && s->smean_off && s->smode_off && s->iloc_off) {
-        for (int p = 0; p < np; p++) {
-            s->pn[p] = (m->pv_off[p + 1] - m->pv_off[p] + 7) & ~7;
-            s->smean_off[p + 1] = s->smean_off[p] + 3 * s->pn[p];
-            s->smode_off[p + 1] = s->smode_off[p] + 3 * s->pn[p] * m->pmodes[p];
-        }
-        for (int i = 0; i < NI; i++)
-            s->iloc_off[i + 1] = s->iloc_off[i] + 3 * s->pn[m->inst_part[i]];
-        s->smean = mdl__calloc((size_t)s->smean_off[np] + 1, sizeof(float));
-        s->smodes = mdl__calloc((size_t)s->smode_off[np] + 1, sizeof(float));
-        s->loc = mdl__calloc((size_t)s->iloc_off[NI] + 1, sizeof(float));
-        s->iw = mdl__calloc((size_t)s->iloc_off[NI] / 3 + 1, sizeof(float));
-    }
-    if (s->smean && s->smodes)
-        for (int p = 0; p < np; p++) {
-            int n = m->pv_off[p + 1] - m->pv_off[p], n8 = s->pn[p], k = m->pmodes[p];
-            const float *mean = m->part_mean + 3 * (size_t)m->pv_off[p];
-            for (int j = 0; j < n; j++)
-                for (int c = 0; c < 3; c++)
-                    s->smean[s->smean_off[p] + c * n8 + j] = mean[3 * j + c];
-            for (int a = 0; a < k; a++) {
-                const float *va = m->part_modes + m->pm_off[p] + (size_t)a * 3 * n;
-                float *sa = s->smodes + s->smode_off[p] + (size_t)a * 3 * n8;
-                for (int j = 0; j < n; j++)
-                    for (int c = 0; c < 3; c++)
-                        sa[c * n8 + j] = va[3 * j + c];
-            }
-        }
-    s->flam = mdl__calloc((size_t)maxk, sizeof(float));
-    if (s->iw && s->iloc_off)
-        for (int v = 0; v < m->nv; v++)
-            for (int b = m->blend_off[v]; b < m->blend_off[v + 1]; b++)
-                s->iw[s->iloc_off[m->blend_inst[b]] / 3 + m->blend_local[b]] = m->blend_w[b];
-    s->bl_off = mdl__calloc((size_t)2 * NI + 1, sizeof(int));
-    s->bl_j = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(int));
-    s->bl_v = mdl__calloc((size_t)(s->inst_pos ? s->inst_pos[NI] : 0) + 1, sizeof(int));
-    s->zero = mdl__calloc((size_t)m->nv + 1, sizeof(int));
-    uint8_t *alone = mdl__calloc((size_t)m->nv + 1, 1);
-    if (s->bl_off && s->bl_j && s->bl_v && s->zero && alone) {
-        int e = 0;
-        for (int i = 0; i < NI; i++) {
-            int p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
-            const int *idx = m->pv_idx + m->pv_off[p];
-            for (int pass = 0; pass < 2; pass++) {
-                s->bl_off[2 * i + pass] = e;
-                for (int j = 0; j < n; j++) {
-                    int v = idx[j], b = m->blend_off[v];
-                    int only = m->blend_off[v + 1] - b == 1 && m->blend_inst[b] == i && m->blend_local[b] == j;
-                    if (only != (pass == 0))
-                        continue;
-                    alone[v] |= (uint8_t)only;
-                    s->bl_j[e] = j;
-                    s->bl_v[e++] = v;
-                }
-            }
-        }
-        s->bl_off[2 * NI] = e;
-        for (int v = 0; v < m->nv; v++)
-            if (!alone[v])
-                s->zero[s->nzero++] = v;
-    }
-    free(alone);
-    s->acc = mdl__calloc((size_t)m->nv * 4, sizeof(double));
-    s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
-    s->mb = mdl__calloc((size_t)nm * 3, sizeof(double));
-    s->mvalid = mdl__calloc((size_t)nm, 1);
-    s->imk_off = mdl__calloc((size_t)NI + 1, sizeof(int));
-    s->imk_local = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
-    s->imk_marker = mdl__calloc((size_t)NI * nm + 1, sizeof(int));
-    s->mloc = mdl__calloc((size_t)NI * nm * 3 + 1, sizeof(double));
-    if (s->imk_off && s->imk_local && s->imk_marker) {
-        int e = 0;
-        for (int i = 0; i < NI; i++) {
-            int p = m->inst_part[i];
-            for (int mk = 0; mk < nm; mk++)
-                for (int j = m->pv_off[p]; j < m->pv_off[p + 1]; j++)
-                    if (m->pv_idx[j] == m->markers[mk].vertex) {
-                        s->imk_local[e] = j - m->pv_off[p];
-                        s->imk_marker[e++] = mk;
-                        break;
-                    }
-            s->imk_off[i + 1] = e;
-        }
-    }
-    int nsov = m->sov_off[NI];
-    s->sov_v = mdl__calloc((size_t)nsov + 1, sizeof(int));
-    s->sov_inv = mdl__calloc((size_t)nsov + 1, sizeof(double));
-    s->sloc = mdl__calloc((size_t)nsov * 4 + 1, sizeof(double));
-    s->spos = mdl__calloc((size_t)nsov * 4 + 1, sizeof(double));
-    s->oov_e = mdl__calloc((size_t)m->order_ov_off[NI] + 1, sizeof(int));
-    s->ymom = mdl__calloc((size_t)NI * 4, sizeof(double));
-    int *ctot = mdl__calloc((size_t)m->nv, sizeof(int));
-    if (s->sov_v && s->sov_inv && s->oov_e && ctot) {
-        for (int i = 0; i < NI; i++)
-            for (int e = m->sov_off[i]; e < m->sov_off[i + 1]; e++) {
-                s->sov_v[e] = m->pv_idx[m->pv_off[m->inst_part[i]] + m->sov[e]];
-                ctot[s->sov_v[e]]++;
-            }
-        for (int e = 0; e < nsov; e++)
-            s->sov_inv[e] = ctot[s->sov_v[e]] > 1 ? 1.0 / (ctot[s->sov_v[e]] - 1) : 0;
-        for (int step = 0; step < NI; step++) { /* order_ov is a subset of sov (train.c) */
-            int i = m->order[step];
-            for (int o = m->order_ov_off[step]; o < m->order_ov_off[step + 1]; o++) {
-                int e = m->sov_off[i];
-                while (e < m->sov_off[i + 1] && m->sov[e] != m->order_ov[o])
-                    e++;
-                if (e == m->sov_off[i + 1]) {
-                    free(ctot);
-                    mdl__steer_synth_destroy(s);
-                    return mdl__err(err, -EINVAL, "synth: model's greedy overlap vertex %d of instance %d "
-                                    "is not among its overlap vertices", m->order_ov[o], i);
-                }
-                s->oov_e[o] = e;
-            }
-        }
-    }
-    free(ctot);
-    s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
-    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->feat || !s->row || !s->z || !s->out || !s->iq || !s->iRp || !s->shared ||
-        !s->iR || !s->it || !s->inst_lam || !s->inst_pos || !s->lam || !s->lamp || !s->loc || !s->flam || !s->iw ||
-        !s->pn || !s->smean_off || !s->smode_off || !s->smean || !s->smodes || !s->iloc_off ||
-        !s->bl_off || !s->bl_j || !s->bl_v || !s->zero || !s->mloc ||
-        !s->acc || !s->cnt || !s->rhs || !s->mb ||
-        !s->mvalid || !s->imk_off || !s->imk_local || !s->imk_marker || !s->sov_v || !s->sov_inv ||
-        !s->sloc || !s->spos || !s->oov_e || !s->ymom) {
+    int rc;
+    if ((rc = synth_scratch(s, err)) || (rc = synth_shared_vertices(s, err)) ||
+        (rc = synth_instance_offsets(s, err)) || (rc = synth_soa_layout(s, err)) ||
+        (rc = synth_blend_lists(s, err)) || (rc = synth_marker_entries(s, err)) ||
+        (rc = synth_overlap_entries(s, err))) {
         mdl__steer_synth_destroy(s);
-        return mdl__err(err, -ENOMEM, "synth: out of memory");
+        return rc;
     }
     *out = s;
     return 0;
@@ -759,8 +830,9 @@ int mdl__steer_synth_frame(mdl_steer_synth *s, const float *markers, const uint8
     for (int r = 0; r < m->nref; r++)
         refok &= s->seen[m->ref[r]];
     double R[9], o[3];
-    if (refok && mdl__body_frame(s->P, m->nref, m->ref, m->place_mode ? m->axis_rec : m->axis_mesh,
-                                 R, o) == 0) {
+    if (refok && mdl__body_frame_any(s->P, s->mvalid, nm, m->nref, m->ref,
+                                     m->place_mode ? m->axis_rec : m->axis_mesh,
+                                     m->place_mode ? m->hd_rec : m->hd_mesh, R, o) == 0) {
         memcpy(s->Rb, R, sizeof R);
         memcpy(s->ob, o, sizeof o);
         s->have_body = 1;
