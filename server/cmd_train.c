@@ -49,7 +49,7 @@ int cmd_train(int argc, char **argv)
                *frames = NULL, *outp = NULL, *report = NULL, *name = NULL;
     mdl_train_opts o;
     mdl_train_opts_default(&o);
-    mdl_marker_opts mo = {0, MDL_UP_AUTO};
+    mdl_marker_opts mo = {0, MDL_UP_AUTO, 0};
     enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
            O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP, O_LINEAR,
            O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF, O_TNOISE };
