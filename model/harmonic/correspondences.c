@@ -21,6 +21,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#ifndef AUTO_PATCH
+#define AUTO_PATCH 0.45
+#endif
+
 static void centroid(const float *V, const uint32_t *F, int t, double c[3])
 {
     for (int k = 0; k < 3; k++)
@@ -102,22 +106,57 @@ int mdl__corr_auto_k(struct mdl_harmonic *h, const float *rest, const uint32_t *
         }
     }
     int n = fps(C, cand, nf, out, ns, k > ns ? k : ns, mind);
+    /* each seed's patch: the triangles nearer to it than to any other seed and within
+     * AUTO_PATCH x the mean distance between neighbouring seeds (the paper's correspondences are
+     * patches and cross-section rings, not single triangles: a lone triangle holds a harmonic field
+     * only in its immediate neighbourhood) */
+    double spacing = 0;
+    for (int i = 0; i < n; i++) {
+        double b = INFINITY;
+        for (int j = 0; j < n; j++)
+            if (j != i && d2(C + 3 * out[i], C + 3 * out[j]) < b)
+                b = d2(C + 3 * out[i], C + 3 * out[j]);
+        spacing += n > 1 ? sqrt(b) / n : 0;
+    }
+    double rad2 = AUTO_PATCH * spacing * AUTO_PATCH * spacing;
+    int nc = 0;
+    for (int t = 0; t < nf; t++) {
+        int b = 0;
+        double bd = INFINITY;
+        for (int i = 0; i < n; i++) {
+            double d = d2(C + 3 * t, C + 3 * out[i]);
+            if (d < bd) {
+                bd = d;
+                b = i;
+            }
+        }
+        cand[t] = bd <= rad2 || out[b] == t ? b : -1;
+        nc += cand[t] >= 0;
+    }
     free(h->corr_tri);
     free(h->corr_group);
-    h->corr_tri = mdl__calloc((size_t)n, sizeof(int));
-    h->corr_group = mdl__calloc((size_t)n, sizeof(int));
+    h->corr_tri = mdl__calloc((size_t)nc, sizeof(int));
+    h->corr_group = mdl__calloc((size_t)nc, sizeof(int));
     double *pos = mdl__calloc(3 * (size_t)n, sizeof *pos);
     if (!h->corr_tri || !h->corr_group || !pos) {
         free(pos);
         rc = mdl__err(err, -ENOMEM, "auto:%d: out of memory", k);
         goto done;
     }
+    /* the seeds first (correspondence i < n is seed i), then the rest of the patches */
     for (int i = 0; i < n; i++) {
         h->corr_tri[i] = out[i];
         h->corr_group[i] = i;
         memcpy(pos + 3 * i, C + 3 * out[i], 3 * sizeof *pos);
     }
-    h->ncorr = h->ngroups = n;
+    int at = n;
+    for (int t = 0; t < nf; t++)
+        if (cand[t] >= 0 && out[cand[t]] != t) {
+            h->corr_tri[at] = t;
+            h->corr_group[at++] = cand[t];
+        }
+    h->ncorr = at;
+    h->ngroups = n;
     h->auto_k = k;
     rc = mdl__candy_tree(h, pos, err);
     free(pos);

@@ -4,8 +4,8 @@
  * deformation gradient, Sumner & Popovic 2004 Sec. 3: the fourth vertex along the normal scaled by
  * 1/sqrt of its length), a group's rotation is the sign-aligned mean of its triangles', and the
  * model deforms the rest mesh with them (Sec. 4.1). The baseline uses the same Poisson glue
- * (eq. 4) but gives every triangle the rotation of its geodesically nearest correspondence instead
- * of the harmonic field: what the interpolation of eq. 2 adds. Both are scored as for the steering
+ * (eq. 4) but gives every triangle the rotation of the group of its geodesically nearest
+ * correspondence (the same K inputs) instead of the harmonic field: what the interpolation of eq. 2 adds. Both are scored as for the steering
  * model: per-vertex distance after best rigid alignment / rest bounding-box diagonal.
  * Evaluation, not a per-frame path: it allocates; the timed part (mdl__hdeform_run) does not.
  * `o` (noise, drops) does not apply: the inputs are rotations, not markers. */
@@ -152,7 +152,7 @@ int mdl__harmonic_eval(const mdl_model *m, const mdl_meshseq *seq, const int *fr
         }
         /* baseline: nearest correspondence's rotation, same glue */
         for (int t = 0; t < nf; t++)
-            mdl__quat_to_mat(qc + 4 * near[t], Rb + 9 * (size_t)t);
+            mdl__quat_to_mat(d.qg + 4 * h->corr_group[near[t]], Rb + 9 * (size_t)t);
         if ((rc = mdl__poisson_solve(&d.pois, Rb, d.X))) {
             mdl__err(err, rc, "eval: frame %d: the baseline solve failed", frames[i]);
             goto out;
