@@ -104,7 +104,7 @@ static int replay_open(drv_source *s, const char *arg, char *err)
         *q++ = '\0';
 
     double loop = 0, speed = 1, start = 0;
-    mdl_marker_opts o = {0, MDL_UP_AUTO};
+    mdl_marker_opts o = {0, MDL_UP_AUTO, 0};
     for (char *save = NULL, *kv = q ? strtok_r(q, "&", &save) : NULL; kv;
          kv = strtok_r(NULL, "&", &save)) {
         char *eq = strchr(kv, '=');

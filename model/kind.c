@@ -15,7 +15,8 @@
 #include <string.h>
 
 /* Every kind this build knows, in id order. A new kind adds its table here. */
-static const mdl_kind_ops *const kinds[] = {&mdl__steer_kind, &mdl__skin_kind};
+static const mdl_kind_ops *const kinds[] = {&mdl__steer_kind, &mdl__harmonic_kind,
+                                             &mdl__skin_kind};
 
 const mdl_kind_ops *mdl__kind_ops(int id)
 {

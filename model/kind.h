@@ -94,6 +94,7 @@ int mdl__rig_copy(const mdl_rig *src, mdl_rig **out, char *err);
 
 /* The tables of the kinds (steer/steer_kind.c, ...). */
 extern const mdl_kind_ops mdl__steer_kind;
+extern const mdl_kind_ops mdl__harmonic_kind;
 extern const mdl_kind_ops mdl__skin_kind;
 
 #endif

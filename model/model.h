@@ -89,6 +89,8 @@ enum { MDL_UP_AUTO = 0, MDL_UP_X, MDL_UP_Y, MDL_UP_Z, MDL_UP_NEG_X, MDL_UP_NEG_Y
 typedef struct mdl_marker_opts {
     double scale; /* metres per file unit; 0 = from the file (C3D POINT:UNITS, TRC Units) or a guess (BVH) */
     int up;       /* MDL_UP_* */
+    int rest;     /* 1: one frame, the skeleton's rest pose (every rotation channel zero) instead of
+                     the motion (BVH, ASF/AMC only) */
 } mdl_marker_opts;
 
 /* Reads by extension: .c3d .trc .bvh .csv. `o` may be NULL for defaults. */
@@ -248,6 +250,35 @@ void mdl_train_opts_default(mdl_train_opts *o);
 int mdl_steer_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
                     const mdl_markers *markers, const mdl_train_opts *o, mdl_model **out, char *err);
 
+/* ------------------------------------------------------------------ the harmonic model (de Aguiar 2007, harmonic/) */
+
+/* A static mesh animated without an example (de Aguiar et al. 2007): rotations at a few
+ * correspondence triangles are interpolated over the mesh as harmonic fields of quaternion
+ * components (Sec. 4.1 eq. 1-2) and the rotated triangles glued back by a Poisson solve (eq. 3-4).
+ * Driven by markers (MDL_INPUT_MARKERS): the template is a skeleton whose bones are pairs of
+ * markers (BVH / ASF/AMC joint positions, or any marker source); a bone's rotation is the rotation
+ * of its rest direction onto its current one, its twist from a third marker where the rig names one
+ * (docs/MODEL.md says what is lost without it). */
+typedef struct mdl_harmonic_opts {
+    int auto_k;           /* > 0: K correspondences by farthest-point sampling, each its own group,
+                             no template (a model measured on its own sequence: `auto:K`) */
+    int per_bone;         /* with a rig: automatic correspondence triangles per bone (Sec. 4.2) */
+    const int *given_off; /* with a rig, may be NULL: per bone (rig limb) user triangles, */
+    const int *given_idx; /*   given_idx[given_off[b] .. given_off[b+1]), completed by cross-section */
+    const char *name;     /* model name */
+} mdl_harmonic_opts;
+
+void mdl_harmonic_opts_default(mdl_harmonic_opts *o);
+
+/* Builds a harmonic model over `target`. With o->auto_k > 0, rig and template_rest may be NULL.
+ * Otherwise the rig's limbs are the template's bones ([from, to] or [from, to, twist] marker
+ * names), reference[0] its root, and template_rest (frame 0) holds the rig's `source` labels in the
+ * template's rest pose; it is aligned to the target by scale (height) and translation (feet on the
+ * target's floor, centres over each other), both facing the same way. The model's rig is a copy of
+ * `rig` whose vertices are the target vertices nearest the aligned joints. */
+int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_markers *template_rest,
+                       const mdl_harmonic_opts *o, mdl_model **out, char *err);
+
 /* ------------------------------------------------------------------ synthesis, any kind */
 
 typedef struct mdl_synth mdl_synth;
@@ -319,6 +350,8 @@ typedef struct mdl_eval_result {
     double *synth_us;        /* per frame synthesis time, allocated (frames) */
     double *frame_err;       /* per frame mean error, allocated (frames) */
     double *baseline_frame_err;
+    const char *baseline_name; /* the baseline's JSON key stem, e.g. "baseline_nearest" (the
+                                  harmonic kind), or NULL for the nearest-frame "baseline_nn" */
 } mdl_eval_result;
 
 /* The mesh must have the model's topology (MDL_ETOPOLOGY otherwise). Runs the primary kind's own

@@ -93,6 +93,13 @@ int cmd_eval(int argc, char **argv)
     }
     cJSON_AddNumberToObject(o, "baseline_nn_mean_err", r.baseline_nn_mean_err);
     cJSON_AddNumberToObject(o, "baseline_nn_p95_err", r.baseline_nn_p95_err);
+    if (r.baseline_name) {
+        char key[96];
+        snprintf(key, sizeof key, "%s_mean_err", r.baseline_name);
+        cJSON_AddNumberToObject(o, key, r.baseline_nn_mean_err);
+        snprintf(key, sizeof key, "%s_p95_err", r.baseline_name);
+        cJSON_AddNumberToObject(o, key, r.baseline_nn_p95_err);
+    }
     cJSON_AddNumberToObject(o, "ratio_to_baseline",
                             r.baseline_nn_mean_err > 0 ? r.mean_err / r.baseline_nn_mean_err : 0);
     cJSON_AddNumberToObject(o, "synth_us_median", med);

@@ -146,7 +146,7 @@ int cmd_synth(int argc, char **argv)
 {
     const char *cmd = "synth", *modelp = NULL, *mk = NULL, *outp = NULL, *objdir = NULL,
                *frames = NULL;
-    mdl_marker_opts mo = {0, MDL_UP_AUTO};
+    mdl_marker_opts mo = {0, MDL_UP_AUTO, 0};
     enum { O_MODEL = 256, O_MARKERS, O_OBJDIR, O_FRAMES, O_MSCALE, O_MUP, O_JSON, O_LABELS };
     int json = 0;
     static const struct option lo[] = {

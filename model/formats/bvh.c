@@ -16,7 +16,8 @@
  *         them: for the usual root with OFFSET 0 0 0 this equals OFFSET + channel);
  *   R_j = R_p * R_c1 * R_c2 * ...   (rotation channels in the order they are listed);
  *   x_j = x_p + R_p * t_j            (roots: R_p = I, x_p = 0).
- * Every joint AND every End Site becomes a marker, in declaration order. An End Site is named
+ * With opts->rest the result is one frame: the rest pose (every channel zero; the root at its
+ * OFFSET). Every joint AND every End Site becomes a marker, in declaration order. An End Site is named
  * "<parent>_End" (a repeated name gets "#2"). All samples are valid.
  *
  * Units: opts->scale when given. Otherwise the scale is guessed from the skeleton's height in the
@@ -385,6 +386,16 @@ int mdl_markers_parse_bvh(const char *buf, size_t len, const char *name, const m
         r = mdl__err(err, MDL_EFORMAT, "%s:%d: '%s' after the last of %d frames", name,
                      p.tok_line, p.tok, m->frames);
         goto done;
+    }
+    if (o && o->rest) {
+        /* the skeleton's rest pose: every channel zero (model.h, mdl_marker_opts.rest) */
+        memset(v, 0, (size_t)p.nch * sizeof *v);
+        fk(&p, v, Rw, Xw, m->P);
+        m->frames = m->frames > 0 ? 1 : 0;
+        if (m->frames == 0) {
+            r = mdl__err(err, MDL_EFORMAT, "%s: no frame to hold the rest pose", name);
+            goto done;
+        }
     }
     memset(m->valid, 1, (size_t)m->frames * (size_t)m->count);
     if (scale == 0) {
