@@ -1,7 +1,9 @@
 /* make_model.c - test fixture: trains a model on the built-in example creature and writes it with
  * the example's trot marker recording, so the daemon's integration tests need nothing outside the
- * repository.  Usage: make_model OUT_DIR  ->  OUT_DIR/example.msm, OUT_DIR/trot.csv, and
- * OUT_DIR/corrupt.msm (the model file cut in half, for the SIGHUP test). */
+ * repository.  Usage: make_model OUT_DIR  ->  OUT_DIR/example.msm, OUT_DIR/trot.csv,
+ * OUT_DIR/corrupt.msm (the model file cut in half, for the SIGHUP test), OUT_DIR/skin.msm (a skin
+ * of the same example: a clock-driven kind) and OUT_DIR/two-kinds.msm (the steering model with
+ * that skin beside it, the daemon's idle animation). */
 #include "model.h"
 
 #include <stdio.h>
@@ -58,6 +60,29 @@ int main(int argc, char **argv)
     fwrite(buf, 1, (size_t)n / 2, f);
     fclose(f);
     free(buf);
+    /* the skin of the same frames, alone and beside the steering model */
+    mdl_skin_opts so;
+    mdl_skin_opts_default(&so);
+    so.bones = 8;
+    so.iterations = 20;
+    so.name = "example-skin";
+    mdl_model *skin = NULL, *skin2 = NULL;
+    if (mdl_skin_fit(seq, idx, frames, &so, &skin, err) ||
+        mdl_skin_fit(seq, idx, frames, &so, &skin2, err)) {
+        fprintf(stderr, "make_model: skin: %s\n", err);
+        return 1;
+    }
+    snprintf(path, sizeof path, "%s/skin.msm", argv[1]);
+    if (mdl_model_save(skin, path, err) || mdl_model_merge(m, &skin2, err)) {
+        fprintf(stderr, "make_model: %s\n", err);
+        return 1;
+    }
+    snprintf(path, sizeof path, "%s/two-kinds.msm", argv[1]);
+    if (mdl_model_save(m, path, err)) {
+        fprintf(stderr, "make_model: %s\n", err);
+        return 1;
+    }
+    mdl_model_destroy(skin);
     snprintf(path, sizeof path, "%s/trot.csv", argv[1]);
     if (mdl_markers_write_csv(path, mk, err)) {
         fprintf(stderr, "make_model: %s\n", err);

@@ -344,6 +344,85 @@ static void scenario_stream(void)
     wsc_free(C);
 }
 
+/* ------------------------------------------------------------------ kinds */
+
+/* Frames of A from index `from` on that have (or lack) the idle flag. */
+static int count_flag(const wsc *A, int from, int flag, int set)
+{
+    int n = 0;
+    for (int i = from; i < A->nframes; i++)
+        n += ((A->frames[i].flags & flag) != 0) == set;
+    return n;
+}
+
+/* A model file with two kinds over one mesh (the steering model + the skin of the same example):
+ * the hello names both; while the replay plays, frames are tracked; once it ends, the skin's
+ * clock-driven animation takes over (idle flag, /healthz driver idle) with no new hello; a seek
+ * brings tracking back. A model whose only kind is the skin streams on its own clock. */
+static void scenario_kinds(void)
+{
+    char model[1200], source[1200], *body = NULL;
+    snprintf(model, sizeof model, "%s/two-kinds.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?start=200", H.dir); /* 40 frames left */
+    const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0", "-v", NULL};
+    harness_start(&H, meshsteerd, args);
+    struct lws_context *ctx = wsc_context();
+    wsc *A = wsc_connect(ctx, H.port, NULL, 0);
+    run_until(ctx, A, 20, 0, 15000);
+    cJSON *h = cJSON_Parse(A->hello);
+    cJSON *m = cJSON_GetObjectItem(h, "model");
+    ASSERT(!strcmp(cJSON_GetObjectItem(m, "kind")->valuestring, "steer"));
+    ASSERT_INT_EQ(cJSON_GetArraySize(cJSON_GetObjectItem(m, "kinds")), 2);
+    ASSERT(!strcmp(cJSON_GetArrayItem(cJSON_GetObjectItem(m, "kinds"), 1)->valuestring, "skin"));
+    ASSERT(cJSON_IsTrue(cJSON_GetObjectItem(m, "idle")));
+    cJSON_Delete(h);
+    ASSERT(count_flag(A, 0, 8, 0) >= 10); /* tracked frames while the replay plays */
+    /* the replay ends after 40 frames: the idle animation takes over, at the model's 30 fps */
+    run_until(ctx, A, A->total_frames + 80, 0, 15000); /* the last 20 tracked, then idle */
+    int from = A->nframes - 50;
+    int idle = count_flag(A, from, 8, 1);
+    printf("kinds: %d of the last 50 frames are idle; hellos %d\n", idle, A->hellos);
+    ASSERT_INT_EQ(idle, 50);
+    ASSERT_INT_EQ(A->hellos, 1); /* same mesh: no new hello */
+    ASSERT_INT_EQ(harness_get(&H, "/healthz", &body), 200);
+    ASSERT(strstr(body, "\"driver\":\"idle\""));
+    free(body);
+    ASSERT(harness_log_has(&H, "the idle animation takes over"));
+    /* the idle frames move: the skin plays the example's walk */
+    double span = (double)(A->frames[A->nframes - 1].t_capture - A->frames[from + 5].t_capture) * 1e-6;
+    double rate = (A->nframes - from - 6) / span;
+    printf("kinds: idle frames at %.1f Hz (model 30 Hz)\n", rate);
+    ASSERT_RATE(rate, 30, 4);
+    /* a seek back revives the replay: tracked again */
+    wsc_send(A, "{\"type\":\"seek\",\"frame\":0}");
+    run_until(ctx, A, A->total_frames + 40, 1, 15000);
+    from = A->nframes - 20;
+    ASSERT(count_flag(A, from, 8, 0) >= 18);
+    ASSERT(harness_log_has(&H, "tracking again"));
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+
+    /* the skin alone: a clock-driven primary kind, no markers, frames at its own 30 fps */
+    snprintf(model, sizeof model, "%s/skin.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?loop=1", H.dir);
+    harness_start(&H, meshsteerd, args);
+    wsc *B = wsc_connect(ctx, H.port, NULL, 0);
+    run_until(ctx, B, 60, 0, 15000);
+    h = cJSON_Parse(B->hello);
+    ASSERT(!strcmp(cJSON_GetObjectItem(cJSON_GetObjectItem(h, "model"), "kind")->valuestring, "skin"));
+    ASSERT_INT_EQ(cJSON_GetArraySize(cJSON_GetObjectItem(h, "markers")), 0);
+    cJSON_Delete(h);
+    ASSERT_INT_EQ(B->nm, 0);
+    ASSERT_INT_EQ(count_flag(B, 0, 8, 1), 0); /* its own frames, not idle ones */
+    span = (double)(B->frames[B->nframes - 1].t_capture - B->frames[10].t_capture) * 1e-6;
+    rate = (B->nframes - 11) / span;
+    printf("kinds: a skin alone streams at %.1f Hz with %d markers\n", rate, B->nm);
+    ASSERT_RATE(rate, 30, 4);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx); /* A's connection lives in the context until here */
+    wsc_free(A);
+    wsc_free(B);
+}
+
 /* ------------------------------------------------------------------ slow */
 
 /* A WebSocket client on a raw socket that completes the handshake and then never reads. */
@@ -1120,7 +1199,7 @@ int main(int argc, char **argv)
     sanitized = getenv("MESHSTEER_SANITIZED") && getenv("MESHSTEER_SANITIZED")[0] == '1';
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
-                        "stream|slow|record|limits|origin|idle|config|labels|horse [MESHSTEER]\n");
+                        "stream|slow|record|limits|origin|idle|kinds|config|labels|horse [MESHSTEER]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
@@ -1146,6 +1225,8 @@ int main(int argc, char **argv)
         scenario_origin();
     else if (!strcmp(argv[3], "idle"))
         scenario_idle();
+    else if (!strcmp(argv[3], "kinds"))
+        scenario_kinds();
     else if (!strcmp(argv[3], "config"))
         scenario_config();
     else if (!strcmp(argv[3], "labels"))
