@@ -39,7 +39,7 @@ int main(void)
     mdl_model_info info;
     mdl_model_get_info(m, &info);
     ASSERT_INT_EQ(info.nv, s->nv);
-    ASSERT(info.nclusters >= 2);
+    ASSERT_INT_GE(info.nclusters, 2);
 
     /* held-out frames: clearly better than the nearest training frame */
     mdl_eval_result r = eval(m, s, "2:60:4", 0, 0);
@@ -47,29 +47,33 @@ int main(void)
            r.baseline_nn_mean_err, r.max_err, r.marker_err, info.nclusters);
     ASSERT_INT_EQ(r.frames, 15);
     ASSERT_INT_EQ(r.nan_count, 0);
-    ASSERT(r.mean_err < 0.6 * r.baseline_nn_mean_err);
-    ASSERT(r.mean_err < 0.01);
+    ASSERT_LT(r.mean_err, 0.6 * r.baseline_nn_mean_err);
+    ASSERT_LT(r.mean_err, 0.01);
     double clean = r.mean_err;
     mdl_eval_result_fini(&r);
 
     /* 5 mm noise: worse, but gracefully; 30 % of markers dropped: no NaN, nothing flies off */
     r = eval(m, s, "2:60:4", 0.005, 0);
     printf("tube 5 mm noise: mean %.5f\n", r.mean_err);
-    ASSERT(r.mean_err >= clean * 0.9);
-    ASSERT(r.mean_err < 0.05);
+    ASSERT_GE(r.mean_err, clean * 0.9);
+    ASSERT_LT(r.mean_err, 0.05);
     mdl_eval_result_fini(&r);
     r = eval(m, s, "2:60:4", 0, 0.3);
     printf("tube 30%% dropped: mean %.5f, box excess %.4f, %d dropped\n", r.mean_err,
            r.max_bbox_excess, r.markers_dropped);
-    ASSERT(r.markers_dropped > 0);
+    ASSERT_INT_GT(r.markers_dropped, 0);
     ASSERT_INT_EQ(r.nan_count, 0);
-    ASSERT(r.max_bbox_excess < 1.0);
+    /* observed (seed 7): mean 0.0367, box excess 0.427 of the diagonal (the tube has three
+     * markers, so each one dropped is a third of its input). Deterministic; the bounds sit 1.35x
+     * and 1.3x above, room for other BLAS kernels' rounding, not for a part flying off */
+    ASSERT_LE(r.mean_err, 0.05);
+    ASSERT_LE(r.max_bbox_excess, 0.55);
     mdl_eval_result_fini(&r);
 
     /* file round trip: identical synthesis */
     char path[] = "/tmp/meshsteer-test-XXXXXX";
     int fd = mkstemp(path);
-    ASSERT(fd >= 0);
+    ASSERT_INT_GE(fd, 0);
     close(fd);
     ASSERT_OK(mdl_model_save(m, path, err), err);
     mdl_model *m2;
