@@ -75,6 +75,7 @@
 #define ASSERT_INT_GT(a, b) ASSERT_INT_CMP_(a, >, b, -1)
 #define ASSERT_INT_GE(a, b) ASSERT_INT_CMP_(a, >=, b, -1)
 #define ASSERT_INT_NE(a, b) ASSERT_INT_CMP_(a, !=, b, -1)
+#define ASSERT_INT_EQ_I(a, b, idx) ASSERT_INT_CMP_(a, ==, b, idx)
 
 /* |a - b| <= tol, printing both, the tolerance and an index the caller names. */
 #define ASSERT_NEAR_I(a, b, tol, idx)                                                              \
