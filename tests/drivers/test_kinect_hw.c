@@ -1,6 +1,6 @@
 /* test_kinect_hw.c - suite hw: with a Kinect v1 attached, reads the motor state, sets the LED and
  * lists the device through the USB watcher. Exits 77 (skip) when USB or the motor is absent. */
-#include "depth/kinect_usb.h"
+#include "depth.h"
 #include "test.h"
 
 #include <errno.h>

@@ -1,7 +1,7 @@
 /* test_markers.c - depth -> markers on the 12 real Kinect frames of Skeltrack's test set (upper
  * bodies; two frames have a second person behind): the nearest person is tracked, head and both
  * hands are found. Overlays go to <build>/tests/drivers/markers-<frame>.png. */
-#include "depth/depth.h"
+#include "depth.h"
 #include "overlay.h"
 #include "kinect_frames.h"
 #include "test.h"

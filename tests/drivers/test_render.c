@@ -1,6 +1,6 @@
 /* test_render.c - the test camera: z-buffer depth of a known quad, the floor, the wall, projector
  * shadows on the correct side, Kinect disparity quantisation, and the world -> camera mapping. */
-#include "depth/render.h"
+#include "depth.h"
 #include "test.h"
 
 #include <errno.h>
