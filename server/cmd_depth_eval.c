@@ -1,6 +1,6 @@
 /* cmd_depth_eval.c - `meshsteer depth-eval`: renders a mesh sequence with the test camera
- * (drivers/depth.h, render.c), runs depth -> markers (drivers/depth.h, markers.c) on every frame and
- * compares the extracted head/hands/feet with the rig's ground-truth vertices.
+ * (drivers/depth.h, render.c), runs depth -> markers (drivers/depth.h, markers.c) on every
+ * frame and compares the extracted head/hands/feet with the rig's ground-truth vertices.
  *
  * Scene: the floor is the lowest vertex of the sequence; the person's horizontal centroid stands
  * DISTANCE metres in front of the camera (camera 1.0 m high, pitched 2 degrees down) - in every

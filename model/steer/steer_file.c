@@ -429,7 +429,8 @@ int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer
                 while (e < m->sov_off[i + 1] && m->sov[e] != m->order_ov[o])
                     e++;
                 if (!b->rc && e == m->sov_off[i + 1])
-                    mdl__rfail(b, "an alignment overlap vertex is not among its instance's overlap vertices");
+                    mdl__rfail(b, "an alignment overlap vertex is not an overlap vertex of its "
+                                  "instance");
             }
         }
         for (int j = 0; j < m->blend_off[nv] && !b->rc; j++) {
