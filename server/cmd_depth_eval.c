@@ -1,6 +1,6 @@
 /* cmd_depth_eval.c - `meshsteer depth-eval`: renders a mesh sequence with the test camera
- * (drivers/depth/render.h), runs depth -> markers (drivers/depth/depth.h) on every frame and
- * compares the extracted head/hands/feet with the rig's ground-truth vertices.
+ * (drivers/depth.h, render.c), runs depth -> markers (drivers/depth.h, markers.c) on every
+ * frame and compares the extracted head/hands/feet with the rig's ground-truth vertices.
  *
  * Scene: the floor is the lowest vertex of the sequence; the person's horizontal centroid stands
  * DISTANCE metres in front of the camera (camera 1.0 m high, pitched 2 degrees down) - in every
@@ -15,8 +15,7 @@
  * and is left out of the error percentiles). Times are those of drv_depth_tracker_process alone. */
 #include "cli.h"
 
-#include "depth/depth.h"
-#include "depth/render.h"
+#include "depth.h"
 
 #include <errno.h>
 #include <math.h>
@@ -83,15 +82,19 @@ static void jnum(const char *key, double v, int comma)
         printf("\"%s\": null%s", key, comma ? ", " : "");
 }
 
-int cmd_depth_eval(int argc, char **argv);
+/* ------------------------------------------------------------------ the steps */
 
-int cmd_depth_eval(int argc, char **argv)
+typedef struct de_args {
+    const char *mesh, *rest, *rig, *frames, *dump;
+    double distance, yaw_deg, fps;
+    int json, smooth, step, travel, per_frame;
+} de_args;
+
+/* Parses the command line into *o. Returns -1 to go on, otherwise the exit status (--help, a
+ * usage error). */
+static int parse_args(int argc, char **argv, de_args *o)
 {
-    const char *mesh = NULL, *rest = NULL, *rigp = NULL, *frames = ":";
-    double distance = 2.5, yaw_deg = 0, fps_opt = 30;
-    int json = 0, smooth = 1, step = 0, travel = 0, per_frame = 0;
-    const char *dump = NULL;
-    FILE *dumpf = NULL;
+    *o = (de_args){.frames = ":", .distance = 2.5, .fps = 30, .smooth = 1};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -99,97 +102,86 @@ int cmd_depth_eval(int argc, char **argv)
             help();
             return CLI_EXIT_OK;
         } else if (!strcmp(a, "--json")) {
-            json = 1;
+            o->json = 1;
         } else if (!strcmp(a, "--no-smooth")) {
-            smooth = 0;
+            o->smooth = 0;
         } else if (!strcmp(a, "--travel")) {
-            travel = 1;
+            o->travel = 1;
         } else if (!strcmp(a, "--per-frame")) {
-            per_frame = 1;
+            o->per_frame = 1;
         } else if (!v) {
             return cli_usage_error(CMD, "unknown option or missing value: %s", a);
         } else if (!strcmp(a, "--mesh")) {
-            mesh = v, i++;
+            o->mesh = v, i++;
         } else if (!strcmp(a, "--dump-depth")) {
-            dump = v, i++;
+            o->dump = v, i++;
         } else if (!strcmp(a, "--rest")) {
-            rest = v, i++;
+            o->rest = v, i++;
         } else if (!strcmp(a, "--rig")) {
-            rigp = v, i++;
+            o->rig = v, i++;
         } else if (!strcmp(a, "--frames")) {
-            frames = v, i++;
+            o->frames = v, i++;
         } else if (!strcmp(a, "--distance")) {
-            if (cli_parse_double(CMD, a, v, &distance))
+            if (cli_parse_double(CMD, a, v, &o->distance))
                 return CLI_EXIT_USAGE;
             i++;
         } else if (!strcmp(a, "--yaw")) {
-            if (cli_parse_double(CMD, a, v, &yaw_deg))
+            if (cli_parse_double(CMD, a, v, &o->yaw_deg))
                 return CLI_EXIT_USAGE;
             i++;
         } else if (!strcmp(a, "--fps")) {
-            if (cli_parse_double(CMD, a, v, &fps_opt))
+            if (cli_parse_double(CMD, a, v, &o->fps))
                 return CLI_EXIT_USAGE;
             i++;
         } else if (!strcmp(a, "--step")) {
-            if (cli_parse_int(CMD, a, v, &step))
+            if (cli_parse_int(CMD, a, v, &o->step))
                 return CLI_EXIT_USAGE;
             i++;
         } else {
             return cli_usage_error(CMD, "unknown option %s", a);
         }
     }
-    if (!mesh || !rigp)
+    if (!o->mesh || !o->rig)
         return cli_usage_error(CMD, "--mesh and --rig are required (see --help)");
-    if (!(distance >= 0.8 && distance <= 4.5))
-        return cli_usage_error(CMD, "--distance %g: the Kinect sees 0.8 .. 4.5 m", distance);
-    if (!(fps_opt > 0 && fps_opt <= 1000))
-        return cli_usage_error(CMD, "--fps %g: must be in (0, 1000]", fps_opt);
-    if (step && (step < 1 || step > 16))
-        return cli_usage_error(CMD, "--step %d: must be 1 .. 16", step);
+    if (!(o->distance >= 0.8 && o->distance <= 4.5))
+        return cli_usage_error(CMD, "--distance %g: the Kinect sees 0.8 .. 4.5 m", o->distance);
+    if (!(o->fps > 0 && o->fps <= 1000))
+        return cli_usage_error(CMD, "--fps %g: must be in (0, 1000]", o->fps);
+    if (o->step && (o->step < 1 || o->step > 16))
+        return cli_usage_error(CMD, "--step %d: must be 1 .. 16", o->step);
+    return -1;
+}
 
-    char err[MDL_ERR_LEN] = "";
-    int status = CLI_EXIT_FAIL;
-    mdl_meshseq *seq = NULL;
-    mdl_rig *rig = NULL;
-    int *idx = NULL, nidx = 0;
-    drv_render *ren = NULL;
-    drv_depth_tracker *trk = NULL;
-    float *V = NULL;
-    uint16_t *depth = NULL;
-    double *ms = NULL, *errs[3] = {NULL, NULL, NULL};
-    int r = mdl_meshseq_read(mesh, rest, &seq, err);
-    if (r) {
-        status = cli_fail(CMD, CLI_EXIT_USAGE, "%s", err);
-        goto done;
-    }
-    if ((r = mdl_rig_read(rigp, seq->nv, &rig, err))) {
-        status = cli_fail(CMD, CLI_EXIT_USAGE, "%s", err);
-        goto done;
-    }
-    if ((r = mdl_parse_frames(frames, seq->frames, &idx, &nidx, err))) {
-        status = cli_fail(CMD, CLI_EXIT_USAGE, "--frames: %s", err);
-        goto done;
-    }
-    if (nidx < 1) {
-        status = cli_fail(CMD, CLI_EXIT_USAGE, "--frames %s selects no frame", frames);
-        goto done;
-    }
-    /* ground-truth vertices: head, lhand, rhand, lfoot, rfoot (the tracker's label order) */
-    int gv[5];
+/* Ground-truth vertices gv[5]: the rig markers named head, lhand, rhand, lfoot, rfoot (the
+ * tracker's label order). Returns 0, or the exit status after a message. */
+static int truth_vertices(const mdl_rig *rig, const char *rigp, int gv[5])
+{
     for (int l = 0; l < 5; l++) {
         gv[l] = -1;
         for (int m = 0; m < rig->nmarkers; m++)
             if (!strcmp(rig->markers[m].name, drv_depth_label_names[l]))
                 gv[l] = rig->markers[m].vertex;
-        if (gv[l] < 0) {
-            status = cli_fail(CMD, CLI_EXIT_USAGE, "%s: no marker named '%s'", rigp,
-                              drv_depth_label_names[l]);
-            goto done;
-        }
+        if (gv[l] < 0)
+            return cli_fail(CMD, CLI_EXIT_USAGE, "%s: no marker named '%s'", rigp,
+                            drv_depth_label_names[l]);
     }
+    return 0;
+}
+
+/* How the sequence stands in front of the camera (the file header's "Scene"). */
+typedef struct de_scene {
+    double px, pz;   /* pivot: the mean horizontal centroid of the selected frames */
+    float yaw;       /* radians about the vertical axis through the pivot */
+    float cy, sy;    /* its cosine and sine */
+    float t[3];      /* then this translation: pivot to (0, *, -distance), floor to y = 0 */
+} de_scene;
+
+/* Floor (lowest vertex), pivot and facing ((L - R) x up, turned to +Z, then by yaw). Returns 0,
+ * or the exit status after a message when the left and right markers coincide. */
+static int place_scene(const mdl_meshseq *seq, const int *idx, int nidx, const int gv[5],
+                       const de_args *o, de_scene *sc)
+{
     const int nv = seq->nv;
-    double fps = seq->fps > 0 ? seq->fps : fps_opt;
-    /* scene: floor, facing, pivot */
     float floor_y = INFINITY;
     double px = 0, pz = 0;
     for (int k = 0; k < nidx; k++) {
@@ -214,13 +206,194 @@ int cmd_depth_eval(int argc, char **argv)
     }
     /* facing = (L - R) x up = (-az, 0, ax); turn it to +Z (towards the camera), then by yaw */
     double fx = -az, fz = ax;
-    if (fx * fx + fz * fz < 1e-12) {
-        status = cli_fail(CMD, CLI_EXIT_USAGE, "%s: left and right markers coincide", rigp);
+    if (fx * fx + fz * fz < 1e-12)
+        return cli_fail(CMD, CLI_EXIT_USAGE, "%s: left and right markers coincide", o->rig);
+    sc->px = px;
+    sc->pz = pz;
+    sc->yaw = (float)(atan2(-fx, fz) + o->yaw_deg * M_PI / 180.0);
+    sc->t[0] = (float)-px;
+    sc->t[1] = -floor_y;
+    sc->t[2] = (float)(-o->distance - pz);
+    sc->cy = cosf(sc->yaw);
+    sc->sy = sinf(sc->yaw);
+    return 0;
+}
+
+/* Places frame Vf into the scene (into V, nv x 3) and, unless the travel is kept, holds its
+ * centroid at the distance (sideways travel stays). */
+static void place_frame(const de_scene *sc, const float *Vf, int nv, int travel, float *V)
+{
+    drv_render_place(Vf, nv, sc->yaw, (float)sc->px, (float)sc->pz, sc->t, V);
+    if (travel)
+        return;
+    double sx = 0, sz = 0;
+    for (int i = 0; i < nv; i++) {
+        sx += Vf[3 * i] - sc->px;
+        sz += Vf[3 * i + 2] - sc->pz;
+    }
+    float dz = (float)(-sc->sy * sx / nv + sc->cy * sz / nv); /* its offset along the axis */
+    for (int i = 0; i < nv; i++)
+        V[3 * i + 2] -= dz;
+}
+
+/* The counts behind the scores, per kind (0 head, 1 hand, 2 foot) and per label; errs[kind]
+ * holds nerr[kind] distances (2 per frame at most), ms one time per frame. */
+typedef struct de_scores {
+    int hit[3], total[3], nerr[3];
+    int side_ok, side_total;
+    int per_label_hit[5], per_label_total[5];
+    int out_of_view;
+    double *ms, *errs[3];
+} de_scores;
+
+/* Scores one frame's tracker result against the ground-truth vertices of V (scene frame); with
+ * per_frame, prints each marker's error and then the extrema (one line). */
+static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_render *ren,
+                        const drv_intrinsics *k, const float *V, const int gv[5], int per_frame)
+{
+    for (int l = 0; l < 5; l++) {
+        float gt[3];
+        drv_render_world_to_camera(ren, V + 3 * gv[l], gt);
+        double gu, gvv;
+        if (drv_intrinsics_project(k, gt, &gu, &gvv) || gu < 4 || gvv < 4 || gu > k->width - 5 ||
+            gvv > k->height - 5) {
+            sc->out_of_view++;
+            if (per_frame)
+                printf(" %s o(%3.0f,%3.0f)", drv_depth_label_names[l], gu, gvv);
+            continue; /* the camera cannot see it (a foot near the camera, a raised hand) */
+        }
+        if (per_frame) {
+            if (res->valid[l])
+                printf(" %s %3.0f(%3.0f,%3.0f)", drv_depth_label_names[l],
+                       100 * dist3(res->xyz[l], gt), gu, gvv);
+            else
+                printf(" %s   -(%3.0f,%3.0f)", drv_depth_label_names[l], gu, gvv);
+        }
+        int kind = l == 0 ? 0 : l <= 2 ? 1 : 2;
+        float best = INFINITY, same = INFINITY;
+        for (int m = 0; m < 5; m++) {
+            int mk = m == 0 ? 0 : m <= 2 ? 1 : 2;
+            if (mk != kind || !res->valid[m])
+                continue;
+            float d = dist3(res->xyz[m], gt);
+            if (d < best)
+                best = d;
+            if (m == l)
+                same = d;
+        }
+        sc->total[kind]++;
+        sc->per_label_total[l]++;
+        if (best <= 0.10f)
+            sc->hit[kind]++;
+        if (same <= 0.10f)
+            sc->per_label_hit[l]++;
+        if (isfinite(best))
+            sc->errs[kind][sc->nerr[kind]++] = best;
+        if (kind) {
+            sc->side_total++;
+            if (same <= 0.10f)
+                sc->side_ok++;
+        }
+    }
+    if (per_frame) {
+        printf(" |");
+        for (int e = 0; e < res->nextrema; e++)
+            printf(" %s(%d,%d g%.2f)",
+                   res->extremum_label[e] >= 0 ? drv_depth_label_names[res->extremum_label[e]]
+                                               : "?",
+                   res->extremum_px[e][0], res->extremum_px[e][1], res->geodesic[e]);
+        printf("\n");
+    }
+}
+
+/* Prints the summary of nidx frames: one JSON object, or a short table. Sorts sc's arrays. */
+static void print_report(const de_args *o, de_scores *sc, int nidx)
+{
+    double med, p99;
+    cli_percentiles(sc->ms, nidx, &med, &p99);
+    const char *kinds[3] = {"head", "hand", "foot"};
+    double rate[3], e50[3], e90[3], e99[3];
+    for (int k = 0; k < 3; k++) {
+        rate[k] = sc->total[k] ? (double)sc->hit[k] / sc->total[k] : 0;
+        e50[k] = pct(sc->errs[k], sc->nerr[k], 0.5);
+        e90[k] = pct(sc->errs[k], sc->nerr[k], 0.9);
+        e99[k] = pct(sc->errs[k], sc->nerr[k], 0.99);
+    }
+    double side = sc->side_total ? (double)sc->side_ok / sc->side_total : 0.0;
+    if (!o->json) {
+        printf("frames %d at %.2f m, yaw %.1f deg\n", nidx, o->distance, o->yaw_deg);
+        for (int k = 0; k < 3; k++)
+            printf("  %-5s within 10 cm %.3f   error median %.3f m, p90 %.3f m\n", kinds[k],
+                   rate[k], e50[k], e90[k]);
+        printf("  side correct %.3f\n  depth->markers %.3f ms median, %.3f ms p99\n", side, med,
+               p99);
+        return;
+    }
+    printf("{\"frames\": %d, \"distance\": %.3f, \"yaw\": %.3f, \"travel\": %s, \"within_10cm\": {",
+           nidx, o->distance, o->yaw_deg, o->travel ? "true" : "false");
+    for (int k = 0; k < 3; k++)
+        jnum(kinds[k], rate[k], k < 2);
+    printf("}, \"side_correct\": %.4f, \"per_marker_same_side_10cm\": {", side);
+    for (int l = 0; l < 5; l++)
+        jnum(drv_depth_label_names[l],
+             sc->per_label_total[l] ? (double)sc->per_label_hit[l] / sc->per_label_total[l] : NAN,
+             l < 4);
+    printf("}, \"error_m\": {");
+    for (int k = 0; k < 3; k++) {
+        printf("\"%s\": {", kinds[k]);
+        jnum("median", e50[k], 1);
+        jnum("p90", e90[k], 1);
+        jnum("p99", e99[k], 1);
+        printf("\"found\": %.4f}%s", sc->total[k] ? (double)sc->nerr[k] / sc->total[k] : 0.0,
+               k < 2 ? ", " : "");
+    }
+    printf("}, \"out_of_view\": %d, \"ms_median\": %.4f, \"ms_p99\": %.4f}\n", sc->out_of_view, med,
+           p99);
+}
+
+/* ------------------------------------------------------------------ the command */
+
+int cmd_depth_eval(int argc, char **argv);
+
+/* Reads the sequence and the rig, places the scene, then per frame: place, render, (dump), track
+ * (timed), score; then the report. */
+int cmd_depth_eval(int argc, char **argv)
+{
+    de_args o;
+    int status = parse_args(argc, argv, &o);
+    if (status >= 0)
+        return status;
+
+    char err[MDL_ERR_LEN] = "", derr[DRV_ERR_LEN] = "";
+    status = CLI_EXIT_FAIL;
+    mdl_meshseq *seq = NULL;
+    mdl_rig *rig = NULL;
+    int *idx = NULL, nidx = 0, gv[5];
+    drv_render *ren = NULL;
+    drv_depth_tracker *trk = NULL;
+    float *V = NULL;
+    uint16_t *depth = NULL;
+    FILE *dumpf = NULL;
+    de_scores sc = {0};
+    de_scene scene;
+    if (mdl_meshseq_read(o.mesh, o.rest, &seq, err) || mdl_rig_read(o.rig, seq->nv, &rig, err)) {
+        status = cli_fail(CMD, CLI_EXIT_USAGE, "%s", err);
         goto done;
     }
-    float yaw = (float)(atan2(-fx, fz) + yaw_deg * M_PI / 180.0);
-    float t[3] = {(float)-px, -floor_y, (float)(-distance - pz)};
-    float cy = cosf(yaw), sy = sinf(yaw);
+    if (mdl_parse_frames(o.frames, seq->frames, &idx, &nidx, err)) {
+        status = cli_fail(CMD, CLI_EXIT_USAGE, "--frames: %s", err);
+        goto done;
+    }
+    if (nidx < 1) {
+        status = cli_fail(CMD, CLI_EXIT_USAGE, "--frames %s selects no frame", o.frames);
+        goto done;
+    }
+    if ((status = truth_vertices(rig, o.rig, gv)) ||
+        (status = place_scene(seq, idx, nidx, gv, &o, &scene)))
+        goto done;
+    status = CLI_EXIT_FAIL;
+    const int nv = seq->nv;
+    const double fps = seq->fps > 0 ? seq->fps : o.fps;
 
     drv_render_opts ro;
     drv_render_opts_default(&ro);
@@ -228,52 +401,37 @@ int cmd_depth_eval(int argc, char **argv)
     ro.cam_pitch = 2.0f;
     drv_depth_opts to;
     drv_depth_opts_default(&to);
-    if (step) { /* a fixed grid */
-        to.step = step;
+    if (o.step) { /* a fixed grid */
+        to.step = o.step;
         to.cell_m = 0;
     }
-    to.smooth = smooth;
-    char derr[DRV_ERR_LEN] = "";
-    if ((r = drv_render_create(&ro, nv, &ren, derr)) ||
-        (r = drv_depth_tracker_create(&to, &trk, derr))) {
+    to.smooth = o.smooth;
+    if (drv_render_create(&ro, nv, &ren, derr) || drv_depth_tracker_create(&to, &trk, derr)) {
         status = cli_fail(CMD, CLI_EXIT_FAIL, "%s", derr);
         goto done;
     }
+    const size_t npix = (size_t)ro.k.width * ro.k.height;
     V = malloc((size_t)nv * 3 * sizeof *V);
-    depth = malloc((size_t)ro.k.width * ro.k.height * sizeof *depth);
-    ms = malloc((size_t)nidx * sizeof *ms);
+    depth = malloc(npix * sizeof *depth);
+    sc.ms = malloc((size_t)nidx * sizeof *sc.ms);
     for (int k = 0; k < 3; k++)
-        errs[k] = malloc((size_t)nidx * 2 * sizeof *errs[k]);
-    if (!V || !depth || !ms || !errs[0] || !errs[1] || !errs[2]) {
+        sc.errs[k] = malloc((size_t)nidx * 2 * sizeof *sc.errs[k]);
+    if (!V || !depth || !sc.ms || !sc.errs[0] || !sc.errs[1] || !sc.errs[2]) {
         status = cli_fail(CMD, CLI_EXIT_FAIL, "out of memory");
         goto done;
     }
-    int hit[3] = {0, 0, 0}, total[3] = {0, 0, 0}, side_ok = 0, side_total = 0, nerr[3] = {0, 0, 0};
-    int per_label_hit[5] = {0}, per_label_total[5] = {0}, out_of_view = 0;
+    if (o.dump && !(dumpf = fopen(o.dump, "wb"))) {
+        status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: %s", o.dump, strerror(errno));
+        goto done;
+    }
     for (int k = 0; k < nidx; k++) {
-        const float *Vf = seq->V + (size_t)idx[k] * nv * 3;
-        drv_render_place(Vf, nv, yaw, (float)px, (float)pz, t, V);
-        if (!travel) { /* hold this frame's centroid at `distance`, keep sideways travel */
-            double sx = 0, sz = 0;
-            for (int i = 0; i < nv; i++) {
-                sx += Vf[3 * i] - px;
-                sz += Vf[3 * i + 2] - pz;
-            }
-            float dz = (float)(-sy * sx / nv + cy * sz / nv); /* its offset along the axis */
-            for (int i = 0; i < nv; i++)
-                V[3 * i + 2] -= dz;
-        }
-        if ((r = drv_render_frame(ren, V, nv, seq->F, seq->nf, depth, derr))) {
+        place_frame(&scene, seq->V + (size_t)idx[k] * nv * 3, nv, o.travel, V);
+        if (drv_render_frame(ren, V, nv, seq->F, seq->nf, depth, derr)) {
             status = cli_fail(CMD, CLI_EXIT_FAIL, "frame %d: %s", idx[k], derr);
             goto done;
         }
-        if (dump && !dumpf && !(dumpf = fopen(dump, "wb"))) {
-            status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: %s", dump, strerror(errno));
-            goto done;
-        }
-        if (dumpf && fwrite(depth, sizeof *depth, (size_t)ro.k.width * ro.k.height, dumpf) !=
-                         (size_t)ro.k.width * ro.k.height) {
-            status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: write failed", dump);
+        if (dumpf && fwrite(depth, sizeof *depth, npix, dumpf) != npix) {
+            status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: write failed", o.dump);
             goto done;
         }
         drv_depth_result res;
@@ -281,109 +439,19 @@ int cmd_depth_eval(int argc, char **argv)
         clock_gettime(CLOCK_MONOTONIC, &a);
         drv_depth_tracker_process(trk, depth, (uint64_t)llround(k * 1e6 / fps), &res);
         clock_gettime(CLOCK_MONOTONIC, &b);
-        ms[k] = (double)(b.tv_sec - a.tv_sec) * 1e3 + (double)(b.tv_nsec - a.tv_nsec) * 1e-6;
-        if (per_frame)
+        sc.ms[k] = (double)(b.tv_sec - a.tv_sec) * 1e3 + (double)(b.tv_nsec - a.tv_nsec) * 1e-6;
+        if (o.per_frame)
             printf("%4d", idx[k]);
-        for (int l = 0; l < 5; l++) {
-            float gt[3];
-            drv_render_world_to_camera(ren, V + 3 * gv[l], gt);
-            double gu, gvv;
-            if (drv_intrinsics_project(&ro.k, gt, &gu, &gvv) || gu < 4 || gvv < 4 ||
-                gu > ro.k.width - 5 || gvv > ro.k.height - 5) {
-                out_of_view++;
-                if (per_frame)
-                    printf(" %s o(%3.0f,%3.0f)", drv_depth_label_names[l], gu, gvv);
-                continue; /* the camera cannot see it (a foot near the camera, a raised hand) */
-            }
-            if (per_frame) {
-                if (res.valid[l])
-                    printf(" %s %3.0f(%3.0f,%3.0f)", drv_depth_label_names[l],
-                           100 * dist3(res.xyz[l], gt), gu, gvv);
-                else
-                    printf(" %s   -(%3.0f,%3.0f)", drv_depth_label_names[l], gu, gvv);
-            }
-            int kind = l == 0 ? 0 : l <= 2 ? 1 : 2;
-            float best = INFINITY, same = INFINITY;
-            for (int m = 0; m < 5; m++) {
-                int mk = m == 0 ? 0 : m <= 2 ? 1 : 2;
-                if (mk != kind || !res.valid[m])
-                    continue;
-                float d = dist3(res.xyz[m], gt);
-                if (d < best)
-                    best = d;
-                if (m == l)
-                    same = d;
-            }
-            total[kind]++;
-            per_label_total[l]++;
-            if (best <= 0.10f)
-                hit[kind]++;
-            if (same <= 0.10f)
-                per_label_hit[l]++;
-            if (isfinite(best))
-                errs[kind][nerr[kind]++] = best;
-            if (kind) {
-                side_total++;
-                if (same <= 0.10f)
-                    side_ok++;
-            }
-        }
-        if (per_frame) {
-            printf(" |");
-            for (int e = 0; e < res.nextrema; e++)
-                printf(" %s(%d,%d g%.2f)",
-                       res.extremum_label[e] >= 0 ? drv_depth_label_names[res.extremum_label[e]]
-                                                  : "?",
-                       res.extremum_px[e][0], res.extremum_px[e][1], res.geodesic[e]);
-            printf("\n");
-        }
+        score_frame(&sc, &res, ren, &ro.k, V, gv, o.per_frame);
     }
-    double med, p99;
-    cli_percentiles(ms, nidx, &med, &p99);
-    const char *kinds[3] = {"head", "hand", "foot"};
-    double rate[3], e50[3], e90[3], e99[3];
-    for (int k = 0; k < 3; k++) {
-        rate[k] = total[k] ? (double)hit[k] / total[k] : 0;
-        e50[k] = pct(errs[k], nerr[k], 0.5);
-        e90[k] = pct(errs[k], nerr[k], 0.9);
-        e99[k] = pct(errs[k], nerr[k], 0.99);
-    }
-    if (json) {
-        printf("{\"frames\": %d, \"distance\": %.3f, \"yaw\": %.3f, \"travel\": %s, \"within_10cm\": {",
-               nidx, distance, yaw_deg, travel ? "true" : "false");
-        for (int k = 0; k < 3; k++)
-            jnum(kinds[k], rate[k], k < 2);
-        printf("}, \"side_correct\": %.4f, \"per_marker_same_side_10cm\": {",
-               side_total ? (double)side_ok / side_total : 0.0);
-        for (int l = 0; l < 5; l++)
-            jnum(drv_depth_label_names[l],
-                 per_label_total[l] ? (double)per_label_hit[l] / per_label_total[l] : NAN, l < 4);
-        printf("}, \"error_m\": {");
-        for (int k = 0; k < 3; k++) {
-            printf("\"%s\": {", kinds[k]);
-            jnum("median", e50[k], 1);
-            jnum("p90", e90[k], 1);
-            jnum("p99", e99[k], 1);
-            printf("\"found\": %.4f}%s", total[k] ? (double)nerr[k] / total[k] : 0.0,
-                   k < 2 ? ", " : "");
-        }
-        printf("}, \"out_of_view\": %d, \"ms_median\": %.4f, \"ms_p99\": %.4f}\n", out_of_view, med,
-               p99);
-    } else {
-        printf("frames %d at %.2f m, yaw %.1f deg\n", nidx, distance, yaw_deg);
-        for (int k = 0; k < 3; k++)
-            printf("  %-5s within 10 cm %.3f   error median %.3f m, p90 %.3f m\n", kinds[k],
-                   rate[k], e50[k], e90[k]);
-        printf("  side correct %.3f\n  depth->markers %.3f ms median, %.3f ms p99\n",
-               side_total ? (double)side_ok / side_total : 0.0, med, p99);
-    }
+    print_report(&o, &sc, nidx);
     status = CLI_EXIT_OK;
 done:
     if (dumpf)
         fclose(dumpf);
     for (int k = 0; k < 3; k++)
-        free(errs[k]);
-    free(ms);
+        free(sc.errs[k]);
+    free(sc.ms);
     free(depth);
     free(V);
     drv_depth_tracker_destroy(trk);

@@ -2,7 +2,7 @@
  * sensors on the USB bus (listed, or watched for arrivals and departures). The USB work is in
  * drivers/depth/kinect_usb.c. */
 #include "cli.h"
-#include "depth/kinect_usb.h"
+#include "depth.h"
 
 #include <errno.h>
 #include <math.h>

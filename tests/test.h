@@ -28,6 +28,55 @@
         }                                                                                          \
     } while (0)
 
+/* Ordered comparisons that print both sides: ASSERT_LT(a, b) checks a < b as doubles (a NaN on
+ * either side fails), ASSERT_INT_LT as long long; LE, GT and GE likewise. The _I forms also print
+ * an index the caller names (a loop variable, a frame). */
+#define ASSERT_CMP_(a, op, b, idx)                                                                 \
+    do {                                                                                           \
+        double _a = (double)(a), _b = (double)(b);                                                 \
+        if (!(_a op _b)) {                                                                         \
+            if ((long)(idx) >= 0)                                                                  \
+                fprintf(stderr, "%s:%d: %s %s %s failed at index %ld: %.9g vs %.9g\n", __FILE__,   \
+                        __LINE__, #a, #op, #b, (long)(idx), _a, _b);                               \
+            else                                                                                   \
+                fprintf(stderr, "%s:%d: %s %s %s failed: %.9g vs %.9g\n", __FILE__, __LINE__, #a,  \
+                        #op, #b, _a, _b);                                                          \
+            exit(1);                                                                               \
+        }                                                                                          \
+    } while (0)
+#define ASSERT_LT_I(a, b, idx) ASSERT_CMP_(a, <, b, idx)
+#define ASSERT_LE_I(a, b, idx) ASSERT_CMP_(a, <=, b, idx)
+#define ASSERT_GT_I(a, b, idx) ASSERT_CMP_(a, >, b, idx)
+#define ASSERT_GE_I(a, b, idx) ASSERT_CMP_(a, >=, b, idx)
+#define ASSERT_LT(a, b) ASSERT_CMP_(a, <, b, -1)
+#define ASSERT_LE(a, b) ASSERT_CMP_(a, <=, b, -1)
+#define ASSERT_GT(a, b) ASSERT_CMP_(a, >, b, -1)
+#define ASSERT_GE(a, b) ASSERT_CMP_(a, >=, b, -1)
+
+#define ASSERT_INT_CMP_(a, op, b, idx)                                                             \
+    do {                                                                                           \
+        long long _a = (long long)(a), _b = (long long)(b);                                        \
+        if (!(_a op _b)) {                                                                         \
+            if ((long)(idx) >= 0)                                                                  \
+                fprintf(stderr, "%s:%d: %s %s %s failed at index %ld: %lld vs %lld\n", __FILE__,   \
+                        __LINE__, #a, #op, #b, (long)(idx), _a, _b);                               \
+            else                                                                                   \
+                fprintf(stderr, "%s:%d: %s %s %s failed: %lld vs %lld\n", __FILE__, __LINE__, #a,  \
+                        #op, #b, _a, _b);                                                          \
+            exit(1);                                                                               \
+        }                                                                                          \
+    } while (0)
+#define ASSERT_INT_LT_I(a, b, idx) ASSERT_INT_CMP_(a, <, b, idx)
+#define ASSERT_INT_LE_I(a, b, idx) ASSERT_INT_CMP_(a, <=, b, idx)
+#define ASSERT_INT_GT_I(a, b, idx) ASSERT_INT_CMP_(a, >, b, idx)
+#define ASSERT_INT_GE_I(a, b, idx) ASSERT_INT_CMP_(a, >=, b, idx)
+#define ASSERT_INT_LT(a, b) ASSERT_INT_CMP_(a, <, b, -1)
+#define ASSERT_INT_LE(a, b) ASSERT_INT_CMP_(a, <=, b, -1)
+#define ASSERT_INT_GT(a, b) ASSERT_INT_CMP_(a, >, b, -1)
+#define ASSERT_INT_GE(a, b) ASSERT_INT_CMP_(a, >=, b, -1)
+#define ASSERT_INT_NE(a, b) ASSERT_INT_CMP_(a, !=, b, -1)
+#define ASSERT_INT_EQ_I(a, b, idx) ASSERT_INT_CMP_(a, ==, b, idx)
+
 /* |a - b| <= tol, printing both, the tolerance and an index the caller names. */
 #define ASSERT_NEAR_I(a, b, tol, idx)                                                              \
     do {                                                                                           \

@@ -4,7 +4,7 @@
 #ifndef MESHSTEER_DRIVERS_DEPTH_INTERNAL_H
 #define MESHSTEER_DRIVERS_DEPTH_INTERNAL_H
 
-#include "depth.h"
+#include "../depth.h"
 
 /* ------------------------------------------------------------------ the downsampled grid (segment.c) */
 

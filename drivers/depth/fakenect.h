@@ -13,7 +13,7 @@
 #ifndef MESHSTEER_DRIVERS_DEPTH_FAKENECT_H
 #define MESHSTEER_DRIVERS_DEPTH_FAKENECT_H
 
-#include "depth.h"
+#include "../depth.h"
 
 #ifdef __cplusplus
 extern "C" {

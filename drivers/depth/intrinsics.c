@@ -6,7 +6,7 @@
  *   z = 1 / (3.3309495161 - 0.0030711016 d)
  * published by the OpenKinect community (valid for d < 1084). One unit of d is about 1/8 pixel of
  * stereo disparity, so depth resolution grows as z^2 (about 2 cm at 2.5 m). */
-#include "depth.h"
+#include "../depth.h"
 
 void drv_intrinsics_kinect1(drv_intrinsics *k)
 {

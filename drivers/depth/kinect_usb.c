@@ -1,8 +1,8 @@
 /* kinect_usb.c - depth sensors on USB (libusb 1.0): the device table, the arrival/departure
  * watcher (hotplug callbacks where libusb supports them, else enumeration diffs), and the Kinect
- * v1 motor's vendor control requests. Encodings as documented in kinect_usb.h. */
+ * v1 motor's vendor control requests. Encodings as documented in ../depth.h. */
 #include "../drv_err.h"
-#include "kinect_usb.h"
+#include "../depth.h"
 
 #include <errno.h>
 #include <libusb.h>

@@ -33,7 +33,7 @@
 #ifndef MESHSTEER_DRIVERS_DEPTH_OPENNI2_H
 #define MESHSTEER_DRIVERS_DEPTH_OPENNI2_H
 
-#include "depth.h"
+#include "../depth.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -1,4 +1,4 @@
-/* render.c - the test camera (see render.h for the model).
+/* render.c - the test camera (see ../depth.h for the model).
  *
  * Rasterisation: per triangle, vertices projected with the pinhole model of depth.h; pixels whose
  * centres lie inside (edge functions, either winding) get 1/z interpolated linearly in screen
@@ -8,7 +8,7 @@
  * depth) is not lit by the pattern and has no reading.
  * Quantisation: z -> raw disparity d = (3.3309495 - 1/z) / 0.0030711 (depth.h), plus Gaussian noise
  * N(0, disparity_noise^2), rounded to an integer, and back to millimetres. */
-#include "render.h"
+#include "../depth.h"
 
 #include "depth_internal.h"
 

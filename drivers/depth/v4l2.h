@@ -32,7 +32,7 @@
 #include <poll.h>
 #include <sys/types.h>
 
-#include "depth.h"
+#include "../depth.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -143,6 +143,12 @@ int mdl__rig_read(mdl__rbuf *b, int nv, mdl_rig **out)
         memcpy(r->ref, ref, sizeof r->ref);
         free(ref);
     }
+    /* as the JSON rig (rig.c): distinct reference markers (two equal ones define no body frame,
+     * and synthesis would wait for one for ever), no marker twice in a limb */
+    for (int i = 1; i < r->nref && !b->rc; i++)
+        for (int j = 0; j < i; j++)
+            if (r->ref[i] == r->ref[j])
+                mdl__rfail(b, "a reference marker repeats");
     r->nlimbs = mdl__get_int(b, "limb count", 1, 4096);
     int L = r->nlimbs;
     if (!b->rc)
@@ -153,6 +159,11 @@ int mdl__rig_read(mdl__rbuf *b, int nv, mdl_rig **out)
                 mdl__rfail(b, "a limb has fewer than two markers");
     if (!b->rc)
         r->limb_idx = mdl__get_ints(b, (size_t)r->limb_off[L], "limb_idx", 0, r->nmarkers - 1);
+    for (int l = 0; l < L && !b->rc; l++)
+        for (int q = r->limb_off[l] + 1; q < r->limb_off[l + 1]; q++)
+            for (int p = r->limb_off[l]; p < q; p++)
+                if (r->limb_idx[p] == r->limb_idx[q])
+                    mdl__rfail(b, "a marker appears twice in a limb");
     if (b->rc) {
         if (!r->limb_off)
             r->nlimbs = 0; /* so that mdl_rig_destroy reads nothing it does not have */

@@ -437,9 +437,17 @@ int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer
         }
         for (int s = 0; s < NI && !b->rc; s++) {
             int i = m->order[s], p = m->inst_part[i], n = m->pv_off[p + 1] - m->pv_off[p];
-            for (int o = m->order_ov_off[s]; o < m->order_ov_off[s + 1] && !b->rc; o++)
+            for (int o = m->order_ov_off[s]; o < m->order_ov_off[s + 1] && !b->rc; o++) {
                 if (m->order_ov[o] >= n)
                     mdl__rfail(b, "an alignment overlap vertex is outside its part");
+                /* synthesis aligns on these among the instance's overlap vertices (synth.c) */
+                int e = m->sov_off[i];
+                while (e < m->sov_off[i + 1] && m->sov[e] != m->order_ov[o])
+                    e++;
+                if (!b->rc && e == m->sov_off[i + 1])
+                    mdl__rfail(b, "an alignment overlap vertex is not an overlap vertex of its "
+                                  "instance");
+            }
         }
         for (int j = 0; j < m->blend_off[nv] && !b->rc; j++) {
             int p = m->inst_part[m->blend_inst[j]];

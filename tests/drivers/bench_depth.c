@@ -1,7 +1,7 @@
 /* bench_depth.c - depth -> markers time per 640x480 frame (median, p99) on the 12 real Kinect
  * frames, one core: the default tracker (grid sized by the person's distance) against the fixed
  * 4-pixel grid in the same run. Usage: bench_depth [passes]. Run by `meson test --benchmark`. */
-#include "depth/depth.h"
+#include "depth.h"
 #include "kinect_frames.h"
 #include "test.h"
 

@@ -5,7 +5,7 @@
 #ifndef MESHSTEER_TEST_OVERLAY_H
 #define MESHSTEER_TEST_OVERLAY_H
 
-#include "depth/depth.h"
+#include "depth.h"
 
 #include <math.h>
 #include <png.h>

@@ -26,8 +26,8 @@ int main(void)
     const char *bad[] = {"d-1.5-7.ppm", "x-1.5-7.pgm", "d--7.pgm", "d-1.5-.pgm", "d-1.5-99999999999.pgm",
                          "d-1.5-7", "d-nan-7.pgm", ""};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
-        ASSERT(drv_fakenect_parse_index_line(bad[i], strlen(bad[i]), &t, &ts, err) < 0);
-        ASSERT(strlen(err) > 0);
+        ASSERT_INT_LT(drv_fakenect_parse_index_line(bad[i], strlen(bad[i]), &t, &ts, err), 0);
+        ASSERT_INT_GT(strlen(err), 0);
     }
     /* PGM header checks */
     uint16_t *mm = malloc(640 * 480 * sizeof *mm), *back = malloc(640 * 480 * sizeof *back);
@@ -90,8 +90,9 @@ int main(void)
         ASSERT_OK(r, err);
         ASSERT_INT_EQ(fr.seq, k);
         ASSERT(valid[0] && valid[1] && valid[2]);
-        ASSERT(xyz[1] > xyz[5 * 3 + 1] + 0.2f); /* head above torso */
-        ASSERT(xyz[2] < -1.0f && xyz[2] > -1.6f);
+        ASSERT_GT(xyz[1], xyz[5 * 3 + 1] + 0.2f); /* head above torso */
+        ASSERT_LT(xyz[2], -1.0f);
+        ASSERT_GT(xyz[2], -1.6f);
     }
     ASSERT_INT_EQ(s.ops->read(&s, &fr, 1000, err), DRV_EEOF);
     s.ops->stop(&s);

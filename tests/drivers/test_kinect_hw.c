@@ -1,6 +1,6 @@
 /* test_kinect_hw.c - suite hw: with a Kinect v1 attached, reads the motor state, sets the LED and
  * lists the device through the USB watcher. Exits 77 (skip) when USB or the motor is absent. */
-#include "depth/kinect_usb.h"
+#include "depth.h"
 #include "test.h"
 
 #include <errno.h>
@@ -32,7 +32,8 @@ int main(void)
     /* a Kinect at rest feels about 1 g */
     double g = sqrt((double)st.accel[0] * st.accel[0] + (double)st.accel[1] * st.accel[1] +
                     (double)st.accel[2] * st.accel[2]) / 819.0;
-    ASSERT(g > 0.7 && g < 1.3);
+    ASSERT_GT(g, 0.7);
+    ASSERT_LT(g, 1.3);
     ASSERT_OK(drv_kinect_motor_led(m, DRV_KINECT_LED_GREEN, err), err);
     drv_kinect_motor_close(m);
     drv_usb_watch *w;

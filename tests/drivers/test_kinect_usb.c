@@ -1,7 +1,7 @@
 /* test_kinect_usb.c - the USB side without hardware: the device table, the Kinect v1 motor's
  * request encodings (LED, tilt in half degrees as two's complement, state read) and the parsing
  * of its 10-byte state, against values worked out by hand from the documented protocol. */
-#include "depth/kinect_usb.h"
+#include "depth.h"
 #include "test.h"
 
 #include <errno.h>

@@ -1,7 +1,7 @@
 /* test_markers.c - depth -> markers on the 12 real Kinect frames of Skeltrack's test set (upper
  * bodies; two frames have a second person behind): the nearest person is tracked, head and both
  * hands are found. Overlays go to <build>/tests/drivers/markers-<frame>.png. */
-#include "depth/depth.h"
+#include "depth.h"
 #include "overlay.h"
 #include "kinect_frames.h"
 #include "test.h"
@@ -37,22 +37,23 @@ int main(void)
                    r.xyz[l][0], r.xyz[l][1], r.xyz[l][2], r.conf[l]);
         printf("\n");
         /* a person of plausible size at the depth these frames were taken (1.1 .. 1.4 m) */
-        ASSERT(r.person_cells > 1000);
-        ASSERT(r.person_depth > 1.0f && r.person_depth < 1.5f);
+        ASSERT_INT_GT(r.person_cells, 1000);
+        ASSERT_GT(r.person_depth, 1.0f);
+        ASSERT_LT(r.person_depth, 1.5f);
         /* head and both hands */
         ASSERT(r.valid[DRV_DEPTH_HEAD]);
         ASSERT(r.valid[DRV_DEPTH_LHAND]);
         ASSERT(r.valid[DRV_DEPTH_RHAND]);
         /* the head is above the torso and is the top of the person unless a hand is raised */
-        ASSERT(r.xyz[DRV_DEPTH_HEAD][1] > r.xyz[DRV_DEPTH_TORSO][1] + 0.25f);
-        ASSERT(fabsf(r.xyz[DRV_DEPTH_HEAD][0] - r.xyz[DRV_DEPTH_TORSO][0]) < 0.2f);
+        ASSERT_GT(r.xyz[DRV_DEPTH_HEAD][1], r.xyz[DRV_DEPTH_TORSO][1] + 0.25f);
+        ASSERT_LT(fabsf(r.xyz[DRV_DEPTH_HEAD][0] - r.xyz[DRV_DEPTH_TORSO][0]), 0.2f);
         /* hands apart from the head and from each other */
         for (int h = DRV_DEPTH_LHAND; h <= DRV_DEPTH_RHAND; h++) {
             float dx = r.xyz[h][0] - r.xyz[DRV_DEPTH_HEAD][0], dy = r.xyz[h][1] - r.xyz[DRV_DEPTH_HEAD][1],
                   dz = r.xyz[h][2] - r.xyz[DRV_DEPTH_HEAD][2];
-            ASSERT(sqrtf(dx * dx + dy * dy + dz * dz) > 0.25f);
+            ASSERT_GT(sqrtf(dx * dx + dy * dy + dz * dz), 0.25f);
         }
-        ASSERT(fabsf(r.xyz[DRV_DEPTH_LHAND][0] - r.xyz[DRV_DEPTH_RHAND][0]) > 0.2f);
+        ASSERT_GT(fabsf(r.xyz[DRV_DEPTH_LHAND][0] - r.xyz[DRV_DEPTH_RHAND][0]), 0.2f);
         /* hands are ends of the arms, not points on the shoulders: at least 0.35 m from the
          * torso marker (in these frames the arms are held out, raised or forward) - except the
          * right hand of depth-data-1399145206, which hangs below the view */
@@ -62,7 +63,7 @@ int main(void)
             float dx = r.xyz[h][0] - r.xyz[DRV_DEPTH_TORSO][0], dy = r.xyz[h][1] - r.xyz[DRV_DEPTH_TORSO][1],
                   dz = r.xyz[h][2] - r.xyz[DRV_DEPTH_TORSO][2];
             printf("  %s %.2f m from the torso\n", drv_depth_label_names[h], sqrtf(dx * dx + dy * dy + dz * dz));
-            ASSERT(sqrtf(dx * dx + dy * dy + dz * dz) > 0.35f);
+            ASSERT_GT(sqrtf(dx * dx + dy * dy + dz * dz), 0.35f);
         }
         /* upper bodies only: no feet */
         ASSERT(!r.valid[DRV_DEPTH_LFOOT] && !r.valid[DRV_DEPTH_RFOOT]);
@@ -77,10 +78,10 @@ int main(void)
                         sum += d[v * 640 + u] * 0.001;
                         n++;
                     }
-            ASSERT(n > 500);
+            ASSERT_INT_GT(n, 500);
             printf("  second person at %.2f m, tracked at %.2f m\n", sum / n, r.person_depth);
-            ASSERT(r.person_depth + 0.3 < sum / n);
-            ASSERT(r.xyz[DRV_DEPTH_TORSO][0] < 0.05f);
+            ASSERT_LT(r.person_depth + 0.3, sum / n);
+            ASSERT_LT(r.xyz[DRV_DEPTH_TORSO][0], 0.05f);
         }
     }
     free(d);

@@ -133,7 +133,7 @@ static pid_t start_daemon(const char *meshsteerd, const char *model, const char 
     snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
     snprintf(daemon_log, sizeof daemon_log, "%s/meshsteerd.log", stage);
     pid_t pid = fork();
-    ASSERT(pid >= 0);
+    ASSERT_INT_GE(pid, 0);
     if (pid == 0) {
         /* Under ASan: OpenNI2's C++ drivers leak a few objects per vanished device and are
          * unloaded at oniShutdown, so LeakSanitizer cannot even name them (the suppression for
@@ -285,7 +285,7 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
         ASSERT_INT_EQ(pclose(p), 0);
         long received = json_long(out, "received");
         printf("daemon: a WebSocket client received %ld mesh frames in 2 s\n", received);
-        ASSERT(received >= 3); /* the camera vanishes every 20 frames, for ~1 s */
+        ASSERT_INT_GE(received, 3); /* the camera vanishes every 20 frames, for ~1 s */
     }
     ASSERT(http_get(port, "/metrics", body, sizeof body) == 0);
     ASSERT(strstr(body, "meshsteer_frames_synthesized_total") != NULL);
@@ -296,7 +296,7 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
         show_log();
     ASSERT(seen_lost);
     ASSERT(back);
-    ASSERT(last > frames_at_loss);
+    ASSERT_INT_GT(last, frames_at_loss);
     ASSERT(WIFEXITED(st) && WEXITSTATUS(st) == 0);
 
     /* what the daemon recorded plays back through it: the first file (up to the loss) once, to
@@ -304,8 +304,10 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
     struct stat st1;
     char rec1[4500];
     snprintf(rec1, sizeof rec1, "%s/daemon-1.oni", stage);
-    ASSERT(stat(rec, &st1) == 0 && st1.st_size > 0);
-    ASSERT(stat(rec1, &st1) == 0 && st1.st_size > 0);
+    ASSERT_INT_EQ(stat(rec, &st1), 0);
+    ASSERT_INT_GT(st1.st_size, 0);
+    ASSERT_INT_EQ(stat(rec1, &st1), 0);
+    ASSERT_INT_GT(st1.st_size, 0);
     snprintf(spec, sizeof spec, "openni2:%s#loop=0", rec);
     pid = start_daemon(meshsteerd, model, spec, port + 1);
     /* a recording offers pause, resume and speed; seek is refused */
@@ -328,7 +330,7 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
     if (!(ended && last >= 10))
         show_log();
     ASSERT(ended);
-    ASSERT(last >= 10);
+    ASSERT_INT_GE(last, 10);
     ASSERT(WIFEXITED(st) && WEXITSTATUS(st) == 0);
     unlink(rec);
     unlink(rec1);
@@ -447,19 +449,22 @@ int main(int argc, char **argv)
             }
             ASSERT_OK(r, err);
             uint64_t now = now_us();
-            ASSERT(fr.t_capture_us <= now && fr.t_capture_us + 500000 > now);
-            ASSERT(fr.t_capture_us > prev);
+            ASSERT_INT_LE(fr.t_capture_us, now);
+            ASSERT_INT_GT(fr.t_capture_us + 500000, now);
+            ASSERT_INT_GT(fr.t_capture_us, prev);
             prev = fr.t_capture_us;
             ASSERT(valid[DRV_DEPTH_HEAD] && valid[DRV_DEPTH_LHAND] && valid[DRV_DEPTH_RHAND]);
             /* the person stands about 1.1 .. 1.5 m in front (camera looks along -Z) */
-            ASSERT(xyz[2] < -1.0f && xyz[2] > -1.6f);
+            ASSERT_LT(xyz[2], -1.0f);
+            ASSERT_GT(xyz[2], -1.6f);
             if (got == 0)
                 printf("round %d: head (%.3f %.3f %.3f) lhand (%.3f %.3f %.3f)\n", round, xyz[0],
                        xyz[1], xyz[2], xyz[3], xyz[4], xyz[5]);
             got++;
         }
         ASSERT(lost);
-        ASSERT(got >= 4 && got <= 8); /* OpenNI2 keeps only the newest frame */
+        ASSERT_INT_GE(got, 4);
+        ASSERT_INT_LE(got, 8); /* OpenNI2 keeps only the newest frame */
     }
     drv_source_close(s);
 
@@ -478,7 +483,8 @@ int main(int argc, char **argv)
         int got = read_frames(s2, 15, 100, xyz, valid, err);
         drv_source_close(s2);
         struct stat st;
-        ASSERT(stat(oni, &st) == 0 && st.st_size > 640 * 480);
+        ASSERT_INT_EQ(stat(oni, &st), 0);
+        ASSERT_INT_GT(st.st_size, 640 * 480);
         printf("recording: %d frames received, %s is %ld bytes\n", got, oni, (long)st.st_size);
 
         /* the file itself, through OpenNI2's C API: every frame read once (manual playback),
@@ -515,7 +521,8 @@ int main(int argc, char **argv)
                           ONI_STATUS_OK);
             printf("recording: %d frames in the file\n", nrec);
             /* the recorder starts on its own thread and may miss the first frame or two */
-            ASSERT(nrec >= got - 3 && nrec <= got + 2);
+            ASSERT_INT_GE(nrec, got - 3);
+            ASSERT_INT_LE(nrec, got + 2);
             ASSERT_INT_EQ(oniStreamStart(str), ONI_STATUS_OK);
             int n = 0, k0 = -1;
             uint64_t t0 = 0;
@@ -534,7 +541,7 @@ int main(int argc, char **argv)
                 if (n == 0)
                     t0 = f->timestamp;
                 else /* the plugin's 30 fps clock, shifted to start at 0 by the recorder */
-                    ASSERT(llabs((long long)(f->timestamp - t0) - n * 33333LL) <= n);
+                    ASSERT_INT_LE(llabs((long long)(f->timestamp - t0) - n * 33333LL), n);
                 const uint16_t *px = f->data;
                 if (k0 < 0) /* which of the two dump frames the recording starts with */
                     k0 = px[240 * 640 + 320] == ref[0][240 * 640 + 320] ? 0 : 1;
@@ -574,10 +581,12 @@ int main(int argc, char **argv)
             ASSERT_OK(r, err);
             if (!back)
                 first = fr.t_capture_us;
-            ASSERT(back == 0 || fr.t_capture_us > last);
+            if (back > 0)
+                ASSERT_INT_GT(fr.t_capture_us, last);
             last = fr.t_capture_us;
             ASSERT(valid[DRV_DEPTH_HEAD] && valid[DRV_DEPTH_LHAND] && valid[DRV_DEPTH_RHAND]);
-            ASSERT(xyz[2] < -1.0f && xyz[2] > -1.6f);
+            ASSERT_LT(xyz[2], -1.0f);
+            ASSERT_GT(xyz[2], -1.6f);
             back++;
         }
         ASSERT_INT_EQ(r, DRV_EEOF);
@@ -585,8 +594,10 @@ int main(int argc, char **argv)
         double span = (double)(last - first) / 1e6, want_span = (nrec - 1) / 30.0;
         printf("playback: %d of %d frames in %.3f s (recorded: %.3f s), then the end\n", back, nrec,
                span, want_span);
-        ASSERT(back >= nrec - 1 && back <= nrec);
-        ASSERT(span > 0.8 * want_span && span < 1.5 * want_span + 0.05);
+        ASSERT_INT_GE(back, nrec - 1);
+        ASSERT_INT_LE(back, nrec);
+        ASSERT_GT(span, 0.8 * want_span);
+        ASSERT_LT(span, 1.5 * want_span + 0.05);
         drv_source_close(s2);
 
         /* controls of a recording: pause and speed, no seek (OpenNI2's seek can hang) */
@@ -624,8 +635,8 @@ int main(int argc, char **argv)
         printf("pause: %d of %d frames played around a %.2f s pause (%d while paused)\n", back + during,
                nrec, nrec / 30.0 + 0.3, during);
         ASSERT_INT_EQ(r, DRV_EEOF);
-        ASSERT(during <= 1);
-        ASSERT(back + during >= nrec - 2);
+        ASSERT_INT_LE(during, 1);
+        ASSERT_INT_GE(back + during, nrec - 2);
         drv_source_close(s2);
         /* speed 3 (set on the running source) plays the recording in about a third of its time */
         ASSERT_OK(drv_source_open(pspec, &s2, err), err);
@@ -648,8 +659,8 @@ int main(int argc, char **argv)
         span = (double)(last - first) / 1e6;
         printf("speed 3: %d of %d frames in %.3f s (recorded: %.3f s)\n", back, nrec, span, want_span);
         ASSERT_INT_EQ(r, DRV_EEOF);
-        ASSERT(back >= 2);
-        ASSERT(span < 0.6 * want_span);
+        ASSERT_INT_GE(back, 2);
+        ASSERT_LT(span, 0.6 * want_span);
         drv_source_close(s2);
 
         /* ... and by default in a loop; speed=0 gives every frame as fast as it is read */
@@ -664,14 +675,15 @@ int main(int argc, char **argv)
             if (r == DRV_ETIMEOUT)
                 continue;
             ASSERT_OK(r, err);
-            ASSERT(back == 0 || fr.t_capture_us > last);
+            if (back > 0)
+                ASSERT_INT_GT(fr.t_capture_us, last);
             last = fr.t_capture_us;
             back++;
         }
         double fast = (double)(now_us() - t_start) / 1e6;
         printf("playback at speed=0, looping: %d frames in %.3f s\n", back, fast);
         ASSERT_INT_EQ(back, 2 * nrec + 3);
-        ASSERT(fast < (2 * nrec + 3) / 30.0); /* faster than recorded */
+        ASSERT_LT(fast, (2 * nrec + 3) / 30.0); /* faster than recorded */
         drv_source_close(s2);
 
         /* recording again to the same name (as after the daemon reopens a lost camera) keeps the
@@ -689,7 +701,8 @@ int main(int argc, char **argv)
         drv_source_close(s2);
         ASSERT(stat(oni, &st1) == 0);
         ASSERT_INT_EQ((long)st1.st_size, (long)st0.st_size);
-        ASSERT(stat(oni1, &st1) == 0 && st1.st_size > 64 * 1024); /* 3 frames, compressed */
+        ASSERT_INT_EQ(stat(oni1, &st1), 0);
+        ASSERT_INT_GT(st1.st_size, 64 * 1024); /* 3 frames, compressed */
         printf("a second recording to %s went to %s (%ld bytes)\n", oni, oni1, (long)st1.st_size);
         unlink(oni1);
         unlink(oni);
@@ -720,7 +733,8 @@ int main(int argc, char **argv)
         drv_source *s;
         int r = drv_source_open("openni2:/nonexistent/recording.oni", &s, err);
         printf("missing: %s\n", err);
-        ASSERT(r < 0 && strstr(err, "recording.oni"));
+        ASSERT_INT_LT(r, 0);
+        ASSERT(strstr(err, "recording.oni"));
         ASSERT(drv_source_open("openni2:x#width=abc", &s, err) == -EINVAL);
     }
     char p[4400];

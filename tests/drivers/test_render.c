@@ -1,6 +1,6 @@
 /* test_render.c - the test camera: z-buffer depth of a known quad, the floor, the wall, projector
  * shadows on the correct side, Kinect disparity quantisation, and the world -> camera mapping. */
-#include "depth/render.h"
+#include "depth.h"
 #include "test.h"
 
 #include <errno.h>
@@ -91,12 +91,13 @@ int main(void)
         if (k == distinct && distinct < 64)
             seen[distinct++] = d[i];
     }
-    ASSERT(n > 1000);
+    ASSERT_INT_GT(n, 1000);
     ASSERT_NEAR(sum / n, 2500, 8);
-    ASSERT(distinct >= 2 && distinct <= 8);
+    ASSERT_INT_GE(distinct, 2);
+    ASSERT_INT_LE(distinct, 8);
     for (int k = 1; k < distinct; k++) {
         int gap = abs((int)seen[k] - (int)seen[0]);
-        ASSERT(gap >= 15); /* steps of about 19 mm */
+        ASSERT_INT_GE(gap, 15); /* steps of about 19 mm */
     }
     /* bad input is rejected */
     uint32_t bad[] = {0, 1, 9};

@@ -106,14 +106,14 @@ static int fk_ioctl(void *ctx, int fd, unsigned long req, void *arg)
     }
     case VIDIOC_QUERYBUF: {
         struct v4l2_buffer *b = arg;
-        ASSERT(b->index < (uint32_t)f->nbufs);
+        ASSERT_INT_LT(b->index, (uint32_t)f->nbufs);
         b->length = f->size;
         b->m.offset = b->index * 0x100000u;
         return 0;
     }
     case VIDIOC_QBUF: {
         struct v4l2_buffer *b = arg;
-        ASSERT(b->index < (uint32_t)f->nbufs);
+        ASSERT_INT_LT(b->index, (uint32_t)f->nbufs);
         ASSERT_INT_EQ(f->queued[b->index], 0);
         f->queued[b->index] = 1;
         return 0;
@@ -163,7 +163,8 @@ static void *fk_mmap(void *ctx, size_t len, int prot, int flags, int fd, off_t o
     ASSERT_INT_EQ(fd, 42);
     ASSERT_INT_EQ(len, f->size);
     int i = (int)(off / 0x100000);
-    ASSERT(i >= 0 && i < f->nbufs);
+    ASSERT_INT_GE(i, 0);
+    ASSERT_INT_LT(i, f->nbufs);
     f->mapped++;
     return f->mem[i];
 }
@@ -296,7 +297,7 @@ int main(void)
         for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
             err[0] = '\0';
             ASSERT_INT_EQ(drv_v4l2_opts_parse(bad[i], &o, err), -EINVAL);
-            ASSERT(strlen(err) > 0);
+            ASSERT_INT_GT(strlen(err), 0);
         }
     }
 
@@ -464,7 +465,7 @@ int main(void)
         drv_source *s;
         ASSERT(drv_source_find_ops("v4l2") == &drv_v4l2_ops);
         int r = drv_source_open("v4l2:/dev/nonexistent-video", &s, err);
-        ASSERT(r < 0);
+        ASSERT_INT_LT(r, 0);
         printf("missing: %s\n", err);
         ASSERT(strstr(err, "/dev/nonexistent-video"));
     }

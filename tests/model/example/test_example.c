@@ -40,7 +40,7 @@ static void test_topology(const mdl_meshseq *s)
     double amin = 1e9;
     for (int f = 0; f < nf; f++) {
         for (int x = 0; x < 3; x++)
-            ASSERT(F[3 * f + x] < (uint32_t)nv);
+            ASSERT_INT_LT(F[3 * f + x], (uint32_t)nv);
         ASSERT(F[3 * f] != F[3 * f + 1] && F[3 * f + 1] != F[3 * f + 2] && F[3 * f] != F[3 * f + 2]);
     }
     for (int fr = 0; fr < s->frames; fr++)
@@ -50,7 +50,7 @@ static void test_topology(const mdl_meshseq *s)
                 amin = a;
         }
     printf("smallest triangle area over all frames: %.3g m^2\n", amin);
-    ASSERT(amin > 1e-8);
+    ASSERT_GT(amin, 1e-8);
 
     /* closed and consistently oriented: every directed edge once, and its reverse once */
     uint64_t *e = malloc((size_t)nf * 3 * sizeof *e);
@@ -96,7 +96,8 @@ static void test_topology(const mdl_meshseq *s)
                 a[2] * (b[0] * c[1] - b[1] * c[0])) / 6.0;
     }
     printf("enclosed volume: %.4f m^3\n", vol);
-    ASSERT(vol > 0.05 && vol < 0.5);
+    ASSERT_GT(vol, 0.05);
+    ASSERT_LT(vol, 0.5);
 }
 
 static void test_shape_and_motion(const mdl_meshseq *s, const mdl_rig *r)
@@ -109,10 +110,13 @@ static void test_shape_and_motion(const mdl_meshseq *s, const mdl_rig *r)
             hi[i] = fmaxf(hi[i], s->V[3 * v + i]);
         }
     printf("rest box: %.3f x %.3f x %.3f m\n", hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
-    ASSERT(hi[0] - lo[0] > 1.0 && hi[0] - lo[0] < 2.0); /* long axis X */
-    ASSERT(hi[1] - lo[1] > 0.8 && hi[1] - lo[1] < 2.0); /* Y up */
-    ASSERT(hi[2] - lo[2] < hi[0] - lo[0]);
-    ASSERT(lo[1] > -0.05 && lo[1] < 0.15);           /* feet near the ground */
+    ASSERT_GT(hi[0] - lo[0], 1.0);
+    ASSERT_LT(hi[0] - lo[0], 2.0); /* long axis X */
+    ASSERT_GT(hi[1] - lo[1], 0.8);
+    ASSERT_LT(hi[1] - lo[1], 2.0); /* Y up */
+    ASSERT_LT(hi[2] - lo[2], hi[0] - lo[0]);
+    ASSERT_GT(lo[1], -0.05);
+    ASSERT_LT(lo[1], 0.15); /* feet near the ground */
 
     /* every vertex moves by more than 5 mm at some frame */
     double least = 1e9;
@@ -129,7 +133,7 @@ static void test_shape_and_motion(const mdl_meshseq *s, const mdl_rig *r)
             least = most;
     }
     printf("smallest largest displacement of a vertex: %.4f m\n", least);
-    ASSERT(least > 0.005);
+    ASSERT_GT(least, 0.005);
 
     /* Limbs bulge. A ring in the middle of the left front upper leg (frame 0 y 0.58..0.66) and a
      * ring in the middle of the lower leg (0.22..0.30): the ring's mean distance to its centroid is
@@ -148,7 +152,7 @@ static void test_shape_and_motion(const mdl_meshseq *s, const mdl_rig *r)
             if (q[1] >= y0 && q[1] <= y1 && fabsf(q[0] - fx) < 0.12f && fabsf(q[2] - fz) < 0.1f)
                 ring_v[n++] = v;
         }
-        ASSERT(n > 10);
+        ASSERT_INT_GT(n, 10);
         for (int f = 0; f < s->frames; f++) {
             const float *V = s->V + (size_t)f * nv * 3;
             double c[3] = {0, 0, 0}, rad = 0;
@@ -168,8 +172,8 @@ static void test_shape_and_motion(const mdl_meshseq *s, const mdl_rig *r)
                ring == 0 ? "upper leg" : "lower leg", n, rmin, rmax, 100 * var[ring]);
     }
     free(ring_v);
-    ASSERT(var[0] > 0.05); /* the muscle swells by more than 5 % */
-    ASSERT(var[1] < 0.01); /* the middle of the lower leg is rigid */
+    ASSERT_GT(var[0], 0.05); /* the muscle swells by more than 5 % */
+    ASSERT_LT(var[1], 0.01); /* the middle of the lower leg is rigid */
 }
 
 int main(void)
@@ -179,7 +183,8 @@ int main(void)
     mdl_rig *r = NULL, *r2 = NULL;
     ASSERT_OK(mdl_example_create(120, &s, &r, err), err);
     printf("example: %d vertices, %d triangles, %d frames at %g fps\n", s->nv, s->nf, s->frames, s->fps);
-    ASSERT(s->nv >= 3000 && s->nv <= 6000);
+    ASSERT_INT_GE(s->nv, 3000);
+    ASSERT_INT_LE(s->nv, 6000);
     ASSERT_INT_EQ(s->frames, 120);
     ASSERT_NEAR(s->fps, 30, 0);
 
@@ -200,7 +205,8 @@ int main(void)
     for (int m = 0; m < 8; m++) {
         ASSERT(!strcmp(r->markers[m].name, names[m]));
         ASSERT(!strcmp(r->markers[m].source, names[m]));
-        ASSERT(r->markers[m].vertex >= 0 && r->markers[m].vertex < s->nv);
+        ASSERT_INT_GE(r->markers[m].vertex, 0);
+        ASSERT_INT_LT(r->markers[m].vertex, s->nv);
         for (int k = 0; k < m; k++)
             ASSERT(r->markers[m].vertex != r->markers[k].vertex);
     }
@@ -219,10 +225,10 @@ int main(void)
         for (int f = 0; f < s->frames; f++)
             low = fminf(low, s->V[((size_t)f * s->nv + r->markers[m].vertex) * 3 + 1]);
         printf("%s lowest at y = %.3f m\n", r->markers[m].name, low);
-        ASSERT(low < 0.08f);
+        ASSERT_LT(low, 0.08f);
     }
-    ASSERT(s->V[3 * r->markers[4].vertex] > 0.7f);  /* head in front */
-    ASSERT(s->V[3 * r->markers[5].vertex] < -0.8f); /* tail tip behind */
+    ASSERT_GT(s->V[3 * r->markers[4].vertex], 0.7f);  /* head in front */
+    ASSERT_LT(s->V[3 * r->markers[5].vertex], -0.8f); /* tail tip behind */
 
     test_topology(s);
     test_shape_and_motion(s, r);
@@ -252,7 +258,7 @@ int main(void)
             }
         }
     printf("largest marker difference between the two motions: %.3f m\n", diff);
-    ASSERT(diff > 0.05);
+    ASSERT_GT(diff, 0.05);
     mdl_markers_destroy(mk);
     mdl_meshseq_destroy(truth);
 

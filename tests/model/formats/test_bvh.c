@@ -43,7 +43,7 @@ static void expect_pos(const mdl_markers *m, int f, const char *name, double x, 
                        double s)
 {
     int j = mdl_markers_find(m, name);
-    ASSERT(j >= 0);
+    ASSERT_INT_GE(j, 0);
     const float *p = m->P + 3 * ((size_t)f * (size_t)m->count + (size_t)j);
     printf("frame %d %-10s (%g, %g, %g)\n", f, name, p[0], p[1], p[2]);
     ASSERT_NEAR_I(p[0], x * s, 1e-5, f);
@@ -103,10 +103,12 @@ static void test_cmu(void)
     ASSERT_INT_EQ(m->count, 31 + 7);
     ASSERT_NEAR(m->fps, 1 / 0.0083333, 1e-6);
     ASSERT(strcmp(m->names[0], "Hips") == 0);
-    ASSERT(mdl_markers_find(m, "Head_End") >= 0);
+    ASSERT_INT_GE(mdl_markers_find(m, "Head_End"), 0);
     int lt = mdl_markers_find(m, "LeftToe_End"), rt = mdl_markers_find(m, "RightToe_End");
     int head = mdl_markers_find(m, "Head_End");
-    ASSERT(lt >= 0 && rt >= 0 && head >= 0);
+    ASSERT_INT_GE(lt, 0);
+    ASSERT_INT_GE(rt, 0);
+    ASSERT_INT_GE(head, 0);
     float lo = 1e9f, hi = -1e9f;
     for (int j = 0; j < m->count; j++) {
         lo = m->P[3 * j + 1] < lo ? m->P[3 * j + 1] : lo;
@@ -117,7 +119,8 @@ static void test_cmu(void)
     /* Measured 1.427 m: toe tip (End Site) to the Head End Site of the CMU skeleton in the
      * first frame; the rest pose (all channels 0) spans 24.27 units = 1.370 m. The joint skeleton
      * is shorter than the subject's stature, hence the lower bound below 1.5 m. */
-    ASSERT(hi - lo > 1.35 && hi - lo < 1.9);
+    ASSERT_GT(hi - lo, 1.35);
+    ASSERT_LT(hi - lo, 1.9);
     /* the guessed unit is the CMU unit: the same as asking for scale 0.056444 */
     mdl_markers *g = NULL;
     mdl_marker_opts o = {.scale = 0.056444, .up = MDL_UP_AUTO};

@@ -175,7 +175,9 @@ static void test_counts(void)
     ASSERT_INT_EQ(m->frames, 264);
     ASSERT_NEAR(m->fps, 120, 1e-9);
     int a = mdl_markers_find(m, "RKNE"), b = mdl_markers_find(m, "RKNE#2");
-    ASSERT(a >= 0 && b >= 0 && a != b);
+    ASSERT_INT_GE(a, 0);
+    ASSERT_INT_GE(b, 0);
+    ASSERT_INT_NE(a, b);
     for (int i = 0; i < m->count; i++)
         for (int j = 0; j < i; j++)
             ASSERT(strcmp(m->names[i], m->names[j]) != 0);
@@ -211,7 +213,8 @@ static void test_counts(void)
         ymin = m->P[3 * i + 1] < ymin ? m->P[3 * i + 1] : ymin;
     }
     printf("85_02 frame 1: marker height range %.3f .. %.3f m\n", ymin, ymax);
-    ASSERT(ymax - ymin > 1.3 && ymax - ymin < 2.2);
+    ASSERT_GT(ymax - ymin, 1.3);
+    ASSERT_LT(ymax - ymin, 2.2);
     mdl_markers_destroy(m);
 }
 
@@ -241,7 +244,7 @@ static void test_round_trip(void)
     a->valid[(size_t)a->count * 10 + 7] = 0;
     char path[] = "/tmp/meshsteer_c3d_XXXXXX.c3d";
     int fd = mkstemps(path, 4);
-    ASSERT(fd >= 0);
+    ASSERT_INT_GE(fd, 0);
     close(fd);
     ASSERT_OK(mdl_markers_write_c3d(path, a, err), err);
     mdl_markers *b = NULL;
@@ -313,7 +316,7 @@ static void test_corrupt(void)
     ASSERT_OK(mdl_markers_parse_c3d(buf, n, "ok", NULL, &m, err), err);
     mdl_markers_destroy(m);
     /* unknown extension, missing file */
-    ASSERT(mdl_markers_read("/nonexistent/x.c3d", NULL, &m, err) < 0);
+    ASSERT_INT_LT(mdl_markers_read("/nonexistent/x.c3d", NULL, &m, err), 0);
     ASSERT(mdl_markers_read("x.obj", NULL, &m, err) == -EINVAL);
     printf("extension: %s\n", err);
 }

@@ -15,7 +15,7 @@ static void test_round_trip(void)
     a->valid[5] = 0;
     char path[] = "/tmp/meshsteer_csv_XXXXXX.CSV"; /* extension match is case-insensitive */
     int fd = mkstemps(path, 4);
-    ASSERT(fd >= 0);
+    ASSERT_INT_GE(fd, 0);
     close(fd);
     ASSERT_OK(mdl_markers_write_csv(path, a, err), err);
     ASSERT_OK(mdl_markers_read(path, NULL, &b, err), err);

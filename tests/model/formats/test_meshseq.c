@@ -214,7 +214,7 @@ static void test_write_objdir(void)
     /* a file where the directory should be */
     char file[160];
     snprintf(file, sizeof file, "%s/0000.obj", dir);
-    ASSERT(mdl_meshseq_write_objdir(file, &part, err) < 0);
+    ASSERT_INT_LT(mdl_meshseq_write_objdir(file, &part, err), 0);
     ASSERT(strstr(err, "0000.obj: cannot create directory"));
 
     const char *names[12];

@@ -82,7 +82,7 @@ int main(void)
     char err[MDL_ERR_LEN] = "";
     char v2path[] = "/tmp/test_modelfile_XXXXXX";
     int fd = mkstemp(v2path);
-    ASSERT(fd >= 0);
+    ASSERT_INT_GE(fd, 0);
     close(fd);
 
     /* version 1 (written by meshsteer 0.1): converted on load */
@@ -92,8 +92,8 @@ int main(void)
     mdl_model_get_info(m1, &info);
     ASSERT_INT_EQ(info.kind, MDL_KIND_STEER);
     ASSERT_INT_EQ(info.nkinds, 1);
-    ASSERT(info.nmarkers > 0);
-    ASSERT(info.nclusters > 0);
+    ASSERT_INT_GT(info.nmarkers, 0);
+    ASSERT_INT_GT(info.nclusters, 0);
     ASSERT_INT_EQ(info.topology, mdl_topology_fingerprint(info.F, info.nf, info.nv));
     float *V1 = calloc((size_t)info.nv * 3, sizeof *V1), *V2 = calloc((size_t)info.nv * 3, sizeof *V2);
     frame_of(m1, V1);
@@ -106,8 +106,8 @@ int main(void)
     ASSERT_INT_EQ(rd32(b + 8), 2);
     ASSERT_INT_EQ(rd32(b + 12), MDL_KIND_STEER);
     ASSERT_INT_EQ(find_chunk(b, len, "MESH"), 16);
-    ASSERT(find_chunk(b, len, "RIG ") > 16);
-    ASSERT(find_chunk(b, len, "STER") > find_chunk(b, len, "RIG "));
+    ASSERT_INT_GT(find_chunk(b, len, "RIG "), 16);
+    ASSERT_INT_GT(find_chunk(b, len, "STER"), find_chunk(b, len, "RIG "));
     ASSERT_INT_EQ(find_chunk(b, len, "END "), len - 8);
     mdl_model *m2;
     ASSERT_OK(mdl_model_parse(b, len, "v2", &m2, err), err);

@@ -69,7 +69,7 @@ static void test_horse(void)
     ASSERT_INT_EQ(m->F[1], b - 1);
     ASSERT_INT_EQ(m->F[2], c - 1);
     for (int i = 0; i < 3 * m->nf; i++)
-        ASSERT(m->F[i] < (uint32_t)m->nv);
+        ASSERT_INT_LT(m->F[i], (uint32_t)m->nv);
     mdl_mesh_destroy(m);
 }
 
@@ -202,7 +202,7 @@ static void test_roundtrip(void)
     const uint32_t bad[] = {0, 1, 3};
     ASSERT_INT_EQ(mdl_mesh_write_obj(path, V, 3, bad, 1, err), -EINVAL);
     ASSERT(strstr(err, "face 0 has vertex 3"));
-    ASSERT(mdl_mesh_write_obj("/nonexistent/dir/x.obj", V, 3, F, 2, err) < 0);
+    ASSERT_INT_LT(mdl_mesh_write_obj("/nonexistent/dir/x.obj", V, 3, F, 2, err), 0);
     unlink(path);
     rmdir(dir);
 }

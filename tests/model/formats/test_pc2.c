@@ -18,7 +18,7 @@ static uint8_t *slurp(const char *path, size_t *len)
     ASSERT(f);
     ASSERT(fseek(f, 0, SEEK_END) == 0);
     long n = ftell(f);
-    ASSERT(n >= 0);
+    ASSERT_INT_GE(n, 0);
     rewind(f);
     uint8_t *b = malloc(n ? (size_t)n : 1);
     ASSERT(fread(b, 1, (size_t)n, f) == (size_t)n);
@@ -69,7 +69,7 @@ static void test_samba(void)
     int moved = 0;
     for (int i = 0; i < 3 * nv; i++)
         moved += V[3 * nv + i] != V[i];
-    ASSERT(moved > nv);
+    ASSERT_INT_GT(moved, nv);
     mdl_mesh_destroy(m);
     free(V);
     free(buf);
@@ -114,7 +114,7 @@ static void test_roundtrip_and_golden(void)
     free(buf);
 
     ASSERT_INT_EQ(mdl_pc2_write(path, V, 0, 1, 0, 1, err), -EINVAL);
-    ASSERT(mdl_pc2_write("/nonexistent/dir/x.pc2", V, TINY_NV, 1, 0, 1, err) < 0);
+    ASSERT_INT_LT(mdl_pc2_write("/nonexistent/dir/x.pc2", V, TINY_NV, 1, 0, 1, err), 0);
     ASSERT(strstr(err, "/nonexistent/dir/x.pc2"));
     unlink(path);
     rmdir(dir);

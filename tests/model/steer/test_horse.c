@@ -1,8 +1,9 @@
 /* test_horse.c - the acceptance checks of the model on real data (../shared/data):
  *   horse-gallop, trained on frames 0:24:2, driven by the rig vertices of 1:24:2: mean error at
  *   most 0.6 x the nearest-frame baseline and at most 1.2 % of the diagonal; 10 mm marker noise
- *   degrades gracefully; 20 % dropped markers: no NaN, no vertex beyond the training box by more
- *   than its diagonal; the same subject with horse-collapse's faces is refused.
+ *   degrades gracefully; 20 % dropped markers: no NaN, mean error at most 2.5 % and no vertex
+ *   beyond the training box by more than 1.5 % of its diagonal; the same subject with
+ *   horse-collapse's faces is refused.
  *   horse-gallop with one more marker per leg (rigs/horse-dense.json): at most 0.5 %.
  *   samba, trained on 0:175:2, beats the baseline on 1:175:2: with elbow and knee markers
  *   (rigs/samba-dense.json) by default, with the sparse rig given motion directions. */
@@ -52,24 +53,28 @@ int main(void)
            "ratio %.3f\n",
            r.mean_err, r.p95_err, r.max_err, r.marker_err, r.baseline_nn_mean_err,
            r.baseline_nn_p95_err, r.mean_err / r.baseline_nn_mean_err);
-    ASSERT(r.mean_err <= 0.6 * r.baseline_nn_mean_err);
-    ASSERT(r.mean_err <= 0.012);
+    ASSERT_LE(r.mean_err, 0.6 * r.baseline_nn_mean_err);
+    ASSERT_LE(r.mean_err, 0.012);
     ASSERT_INT_EQ(r.nan_count, 0);
     double clean = r.mean_err;
     mdl_eval_result_fini(&r);
 
     r = eval(m, horse, "1:24:2", 0.010, 0);
     printf("horse, 10 mm noise: mean %.4f (baseline %.4f)\n", r.mean_err, r.baseline_nn_mean_err);
-    ASSERT(r.mean_err < 3 * clean);
-    ASSERT(r.mean_err < r.baseline_nn_mean_err);
+    ASSERT_LT(r.mean_err, 3 * clean);
+    ASSERT_LT(r.mean_err, r.baseline_nn_mean_err);
     mdl_eval_result_fini(&r);
 
     r = eval(m, horse, "1:24:2", 0, 0.2);
     printf("horse, 20%% dropped (%d samples): mean %.4f, box excess %.4f of its diagonal\n",
            r.markers_dropped, r.mean_err, r.max_bbox_excess);
-    ASSERT(r.markers_dropped > 0);
+    ASSERT_INT_GT(r.markers_dropped, 0);
     ASSERT_INT_EQ(r.nan_count, 0);
-    ASSERT(r.max_bbox_excess <= 1.0);
+    /* observed (seed 1): mean 0.0180, box excess 0.0084. The run is deterministic; the margins
+     * (1.4x, 1.8x) leave room for other BLAS kernels' rounding and small training changes, while
+     * a limb thrown off by a lost marker moves whole parts by tenths of the diagonal */
+    ASSERT_LE(r.mean_err, 0.025);
+    ASSERT_LE(r.max_bbox_excess, 0.015);
     mdl_eval_result_fini(&r);
 
     /* same counts, different faces */
@@ -90,7 +95,7 @@ int main(void)
     r = eval(m, horse, "1:24:2", 0, 0);
     printf("horse, 12 markers: mean %.4f p95 %.4f | baseline %.4f | ratio %.3f\n", r.mean_err,
            r.p95_err, r.baseline_nn_mean_err, r.mean_err / r.baseline_nn_mean_err);
-    ASSERT(r.mean_err <= 0.005);
+    ASSERT_LE(r.mean_err, 0.005);
     mdl_eval_result_fini(&r);
     mdl_model_destroy(m);
     mdl_meshseq_destroy(horse);
@@ -104,7 +109,7 @@ int main(void)
     r = eval(m, samba, "1:175:2", 0, 0);
     printf("samba, 13 markers, defaults: mean %.4f p95 %.4f | baseline mean %.4f | ratio %.3f\n",
            r.mean_err, r.p95_err, r.baseline_nn_mean_err, r.mean_err / r.baseline_nn_mean_err);
-    ASSERT(r.mean_err < r.baseline_nn_mean_err);
+    ASSERT_LT(r.mean_err, r.baseline_nn_mean_err);
     mdl_eval_result_fini(&r);
     mdl_model_destroy(m);
     o.use_motion_dir = 1;
@@ -115,7 +120,7 @@ int main(void)
     printf("samba (motion directions, 99%% variance): mean %.4f p95 %.4f | baseline mean %.4f | "
            "ratio %.3f\n",
            r.mean_err, r.p95_err, r.baseline_nn_mean_err, r.mean_err / r.baseline_nn_mean_err);
-    ASSERT(r.mean_err < r.baseline_nn_mean_err);
+    ASSERT_LT(r.mean_err, r.baseline_nn_mean_err);
     mdl_eval_result_fini(&r);
     mdl_model_destroy(m);
     mdl_meshseq_destroy(samba);

@@ -22,8 +22,8 @@ int main(void)
     }
     double mean[d], sd[d], coef[(d + 1) * q], lam, rt, rl, z[d + 1], yp[q];
     ASSERT_OK(mdl__ridge_fit(X, n, d, Y, q, -1, NULL, 0, mean, sd, coef, &lam, &rt, &rl, err), err);
-    ASSERT(lam <= 1e-4);
-    ASSERT(rl < 1e-3);
+    ASSERT_LE(lam, 1e-4);
+    ASSERT_LT(rl, 1e-3);
     double x[d] = {0.5, -1, 1.5};
     mdl__ridge_predict(coef, d, q, mean, sd, x, z, yp);
     ASSERT_NEAR(yp[0], 1 + 1 + 3 + 0.75, 1e-3);
@@ -57,8 +57,8 @@ int main(void)
         free(cf);
     }
     printf("rms error on new points: linear %.4f, radial basis %.4f\n", errs[0], errs[1]);
-    ASSERT(errs[1] < 0.1);
-    ASSERT(errs[1] < 0.3 * errs[0]);
+    ASSERT_LT(errs[1], 0.1);
+    ASSERT_LT(errs[1], 0.3 * errs[0]);
     /* fewer samples than inputs: leave-one-out must still be honest (not ~0) */
     {
         enum { n2 = 8, d2 = 20 };
@@ -73,7 +73,7 @@ int main(void)
         }
         ASSERT_OK(mdl__ridge_fit(X2, n2, d2, Y2, 1, -1, NULL, 0, m2, s2, c2, &lam, &rt, &rl, err), err);
         printf("noise target: leave-one-out residual %.3f (chosen ridge %g)\n", rl, lam);
-        ASSERT(rl > 0.9);
+        ASSERT_GT(rl, 0.9);
     }
     printf("regress: ok\n");
     return 0;

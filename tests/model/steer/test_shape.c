@@ -22,8 +22,8 @@ int main(void)
     int k;
     ASSERT_OK(mdl__pca(X, m, F, 0.999999, 8, mean, &V, &s2, &k, &expl, err), err);
     ASSERT_INT_EQ(k, 2);
-    ASSERT(s2[0] > s2[1]);
-    ASSERT(expl > 0.999999);
+    ASSERT_GT(s2[0], s2[1]);
+    ASSERT_GT(expl, 0.999999);
     for (int f = 0; f < F; f++) {
         double lam[2] = {0, 0};
         for (int j = 0; j < 2; j++)
@@ -47,7 +47,8 @@ int main(void)
     /* keeping 90 %: only the dominant mode */
     ASSERT_OK(mdl__pca(X, m, F, 0.9, 8, mean, &V, &s2, &k, &expl, err), err);
     ASSERT_INT_EQ(k, 1);
-    ASSERT(expl >= 0.9 && expl < 1);
+    ASSERT_GE(expl, 0.9);
+    ASSERT_LT(expl, 1);
     free(V);
     free(s2);
     printf("shape: ok\n");

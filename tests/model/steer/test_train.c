@@ -23,6 +23,43 @@ static mdl_eval_result eval(const mdl_model *m, const mdl_meshseq *s, const char
     return r;
 }
 
+/* Synthesises two frames of the tube from m: its markers at their rig vertices in frames 1 and 3
+ * (at the rest pose when m's vertex count is not the tube's). Returns 0 when m's synthesis can be
+ * created, runs and gives finite vertices; prints what failed otherwise. */
+static int check_finite(mdl_model *m, const mdl_meshseq *s, char *err)
+{
+    mdl_model_info info;
+    mdl_model_get_info(m, &info);
+    mdl_synth *syn = NULL;
+    if (mdl_synth_create(m, 0, &syn, err) != 0) {
+        fprintf(stderr, "loaded, but synthesis refused: %s\n", err);
+        return -1;
+    }
+    float *mk = calloc((size_t)info.nmarkers * 3 + 3, sizeof *mk);
+    float *V = calloc((size_t)info.nv * 3, sizeof *V);
+    ASSERT(mk && V);
+    int rc = 0;
+    for (int f = 1; f <= 3 && !rc; f += 2) {
+        const float *P = info.nv == s->nv ? s->V + (size_t)f * s->nv * 3 : info.rest;
+        for (int j = 0; j < info.nmarkers; j++)
+            memcpy(mk + 3 * j, P + 3 * (size_t)info.markers[j].vertex, 3 * sizeof(float));
+        int r = mdl_synth_markers(syn, mk, NULL, V, NULL);
+        if (r != 0) {
+            fprintf(stderr, "loaded, but frame %d returned %d\n", f, r);
+            rc = -1;
+        }
+        for (int v = 0; v < 3 * info.nv && !rc; v++)
+            if (!isfinite(V[v])) {
+                fprintf(stderr, "loaded, but frame %d has vertex coordinate %d = %g\n", f, v, V[v]);
+                rc = -1;
+            }
+    }
+    free(mk);
+    free(V);
+    mdl_synth_destroy(syn);
+    return rc;
+}
+
 int main(void)
 {
     char err[MDL_ERR_LEN] = "";
@@ -39,7 +76,7 @@ int main(void)
     mdl_model_info info;
     mdl_model_get_info(m, &info);
     ASSERT_INT_EQ(info.nv, s->nv);
-    ASSERT(info.nclusters >= 2);
+    ASSERT_INT_GE(info.nclusters, 2);
 
     /* held-out frames: clearly better than the nearest training frame */
     mdl_eval_result r = eval(m, s, "2:60:4", 0, 0);
@@ -47,29 +84,33 @@ int main(void)
            r.baseline_nn_mean_err, r.max_err, r.marker_err, info.nclusters);
     ASSERT_INT_EQ(r.frames, 15);
     ASSERT_INT_EQ(r.nan_count, 0);
-    ASSERT(r.mean_err < 0.6 * r.baseline_nn_mean_err);
-    ASSERT(r.mean_err < 0.01);
+    ASSERT_LT(r.mean_err, 0.6 * r.baseline_nn_mean_err);
+    ASSERT_LT(r.mean_err, 0.01);
     double clean = r.mean_err;
     mdl_eval_result_fini(&r);
 
     /* 5 mm noise: worse, but gracefully; 30 % of markers dropped: no NaN, nothing flies off */
     r = eval(m, s, "2:60:4", 0.005, 0);
     printf("tube 5 mm noise: mean %.5f\n", r.mean_err);
-    ASSERT(r.mean_err >= clean * 0.9);
-    ASSERT(r.mean_err < 0.05);
+    ASSERT_GE(r.mean_err, clean * 0.9);
+    ASSERT_LT(r.mean_err, 0.05);
     mdl_eval_result_fini(&r);
     r = eval(m, s, "2:60:4", 0, 0.3);
     printf("tube 30%% dropped: mean %.5f, box excess %.4f, %d dropped\n", r.mean_err,
            r.max_bbox_excess, r.markers_dropped);
-    ASSERT(r.markers_dropped > 0);
+    ASSERT_INT_GT(r.markers_dropped, 0);
     ASSERT_INT_EQ(r.nan_count, 0);
-    ASSERT(r.max_bbox_excess < 1.0);
+    /* observed (seed 7): mean 0.0367, box excess 0.427 of the diagonal (the tube has three
+     * markers, so each one dropped is a third of its input). Deterministic; the bounds sit 1.35x
+     * and 1.3x above, room for other BLAS kernels' rounding, not for a part flying off */
+    ASSERT_LE(r.mean_err, 0.05);
+    ASSERT_LE(r.max_bbox_excess, 0.55);
     mdl_eval_result_fini(&r);
 
     /* file round trip: identical synthesis */
     char path[] = "/tmp/meshsteer-test-XXXXXX";
     int fd = mkstemp(path);
-    ASSERT(fd >= 0);
+    ASSERT_INT_GE(fd, 0);
     close(fd);
     ASSERT_OK(mdl_model_save(m, path, err), err);
     mdl_model *m2;
@@ -132,6 +173,33 @@ int main(void)
             ASSERT(strstr(err, "cut") != NULL);
             refused++;
         }
+        /* byte changes: every byte in turn, inverted (and, for every 4th, its lowest bit flipped,
+         * which keeps most floats finite and nearby, so that they load): each version either
+         * is refused with a message and nothing left behind, or loads a model whose synthesis
+         * from the tube's own markers is finite */
+        int loaded = 0, changed = 0;
+        for (long at = 0; at < len; at++) {
+            for (int flip = 0; flip < 2; flip++) {
+                if (flip == 1 && at % 4 != 0)
+                    continue;
+                uint8_t keep = buf[at];
+                buf[at] ^= flip ? 0x01 : 0xff;
+                changed++;
+                err[0] = 0;
+                mdl_model *bad = NULL;
+                if (mdl_model_parse(buf, (size_t)len, "flip", &bad, err) != 0) {
+                    ASSERT(bad == NULL);
+                    ASSERT(err[0] != 0);
+                } else {
+                    ASSERT_INT_EQ_I(check_finite(bad, s, err), 0, at); /* index: the byte */
+                    mdl_model_destroy(bad);
+                    loaded++;
+                }
+                buf[at] = keep;
+            }
+        }
+        printf("model file: %d byte changes, %d refused with a message, %d load and synthesise "
+               "finite frames\n", changed, changed - loaded, loaded);
         buf[8] = 99; /* version */
         mdl_model *bad = NULL;
         ASSERT_INT_EQ(mdl_model_parse(buf, (size_t)len, "v", &bad, err), MDL_EVERSION);

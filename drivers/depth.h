@@ -1,6 +1,9 @@
-/* depth.h - markers from depth images (pure C, no device), and the test camera.
+/* depth.h - the public depth side of drivers/ (beside drivers.h, the marker-source interface):
+ * markers from depth images (pure C, no device), the test camera, and depth sensors on USB. The
+ * sources built on them (fakenect, v4l2, openni2) are reached through drivers.h; their headers,
+ * and everything else under drivers/depth/, are private to drivers/ (tests/layout.sh).
  *
- * Pipeline per frame (drv_depth_tracker_process, markers.c):
+ * Markers from depth images, pipeline per frame (drv_depth_tracker_process, markers.c):
  *   segment.c   foreground: depth gate, RANSAC floor plane removal, connected components on a
  *               downsampled grid, the nearest person-sized component;
  *   geodesic.c  accumulative geodesic extrema (Plagemann et al. 2010, Baak et al. 2011): Dijkstra
@@ -27,7 +30,6 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
-
 
 /* ------------------------------------------------------------------ camera intrinsics (intrinsics.c) */
 
@@ -143,6 +145,124 @@ void drv_depth_tracker_reset(drv_depth_tracker *t);
  * person) of the last processed frame. */
 void drv_depth_tracker_grid(const drv_depth_tracker *t, int *step, int *gw, int *gh,
                             const uint8_t **person);
+
+/* ------------------------------------------------------------------ the test camera (render.c)
+ * Rasterises a mesh into Kinect-v1-like depth.
+ *
+ * World: metres, Y up, the floor is y = 0. The camera stands at (0, cam_height, 0) looking along
+ * world -Z, pitched down by cam_pitch degrees; its frame is the Y-up camera frame above.
+ * Per frame: z-buffer rasterisation (perspective-correct depth), a floor plane and an optional back
+ * wall, then the Kinect's ways of failing: shadows of the IR projector (it sits `baseline` metres
+ * to the camera's +X, so surfaces it cannot see give no reading, left of foreground objects),
+ * dropouts at depth edges, raw 11-bit disparity quantisation with Gaussian disparity noise
+ * (about 2 cm depth steps at 2.5 m), and the valid range. Output: millimetres, 0 = no reading.
+ * All buffers are allocated at create (for up to max_vertices vertices). */
+
+typedef struct drv_render_opts {
+    drv_intrinsics k;
+    float cam_height;        /* metres above the floor */
+    float cam_pitch;         /* degrees, positive = looking down */
+    int floor;               /* 1: render the floor y = 0 */
+    float wall_dist;         /* a back wall at world z = -wall_dist; 0 = none */
+    float min_range, max_range; /* metres; no reading outside */
+    double disparity_noise;  /* sigma of Gaussian noise on raw disparity (units of 1/8 pixel) */
+    double baseline;         /* projector offset along the camera's +X (metres); 0 = no shadows */
+    double edge_dropout;     /* probability that a pixel at a depth edge has no reading */
+    int quantise;            /* 1: Kinect v1 raw disparity quantisation */
+    uint64_t seed;           /* noise seed; frames are deterministic per seed and frame order */
+} drv_render_opts;
+
+void drv_render_opts_default(drv_render_opts *o);
+
+typedef struct drv_render drv_render;
+
+int drv_render_create(const drv_render_opts *o, int max_vertices, drv_render **out, char *err);
+void drv_render_destroy(drv_render *r);
+/* V: nv x 3 world positions; F: nf x 3 0-based triangles; out: width x height millimetres. */
+int drv_render_frame(drv_render *r, const float *V, int nv, const uint32_t *F, int nf,
+                     uint16_t *out, char *err);
+/* World point -> the camera frame (metres, Y up, looking -Z). */
+void drv_render_world_to_camera(const drv_render *r, const float w[3], float c[3]);
+
+/* Moves a mesh into the scene: rotates it about the vertical axis by yaw (radians, around the
+ * point (pivot_x, *, pivot_z)), then translates by t. V, out: nv x 3 (may be the same array). */
+void drv_render_place(const float *V, int nv, float yaw, float pivot_x, float pivot_z,
+                      const float t[3], float *out);
+
+/* ------------------------------------------------------------------ USB (kinect_usb.c)
+ * Depth sensors on USB through libusb: which devices are depth sensors, a watcher for their
+ * arrival and departure (libusb hotplug, or polling where libusb has no hotplug support), and the
+ * Kinect v1 motor: tilt and LED.
+ *
+ * Known devices: Kinect v1 camera 045e:02ae, motor 045e:02b0, Kinect for Windows 045e:02c2;
+ * PrimeSense Carmine/Asus Xtion 1d27:0600, 1d27:0601, 1d27:0609.
+ *
+ * Kinect v1 motor vendor requests (OpenKinect protocol documentation, "Motor"):
+ *   LED:   bmRequestType 0x40 (vendor, host-to-device), bRequest 0x06, wValue = LED mode
+ *          (0 off, 1 green, 2 red, 3 yellow, 4 blink green, 6 blink red/yellow), wIndex 0, no data;
+ *   tilt:  bmRequestType 0x40, bRequest 0x31, wValue = angle in half degrees as a 16-bit two's
+ *          complement (the motor accepts about -31..+31 degrees), wIndex 0, no data;
+ *   state: bmRequestType 0xC0 (vendor, device-to-host), bRequest 0x32, wValue 0, wIndex 0,
+ *          10 bytes: [2..7] accelerometer x, y, z as big-endian int16 (819 counts = 1 g),
+ *          [8] tilt angle in half degrees (int8, 0x80 = unknown, moving), [9] motor status
+ *          (0 stopped, 1 at limit, 4 moving). */
+
+/* "kinect1-camera", "kinect1-motor", "kinect1-windows", "primesense" or NULL. */
+const char *drv_usb_depth_kind(uint16_t vid, uint16_t pid);
+
+typedef struct drv_usb_request {
+    uint8_t bm_request_type, b_request;
+    uint16_t w_value, w_index, w_length;
+} drv_usb_request;
+
+enum { DRV_KINECT_LED_OFF = 0, DRV_KINECT_LED_GREEN = 1, DRV_KINECT_LED_RED = 2,
+       DRV_KINECT_LED_YELLOW = 3, DRV_KINECT_LED_BLINK_GREEN = 4,
+       DRV_KINECT_LED_BLINK_RED_YELLOW = 6 };
+
+/* name: off, green, red, yellow, blink-green, blink-red-yellow. */
+int drv_kinect_led_parse(const char *name, int *led, char *err);
+int drv_kinect_led_request(int led, drv_usb_request *rq, char *err);
+/* degrees in [-31, 31], rounded to half degrees. */
+int drv_kinect_tilt_request(double degrees, drv_usb_request *rq, char *err);
+void drv_kinect_state_request(drv_usb_request *rq);
+
+typedef struct drv_kinect_state {
+    int16_t accel[3];     /* raw counts, 819 = 1 g */
+    double tilt_deg;      /* NAN while moving / unknown */
+    int status;           /* 0 stopped, 1 at limit, 4 moving */
+} drv_kinect_state;
+int drv_kinect_state_parse(const uint8_t *buf, size_t len, drv_kinect_state *st, char *err);
+
+/* ---- devices on the bus */
+
+typedef struct drv_usb_dev {
+    uint16_t vid, pid;
+    uint8_t bus, addr;
+    const char *kind;     /* drv_usb_depth_kind */
+} drv_usb_dev;
+
+typedef struct drv_usb_watch drv_usb_watch;
+/* Called for each known depth device that arrives (arrived = 1, including those present at
+ * create) or leaves (0); from drv_usb_watch_poll, on the caller's thread. */
+typedef void (*drv_usb_event_fn)(void *user, int arrived, const drv_usb_dev *d);
+
+/* -ENODEV when USB is not available here (no usbfs). */
+int drv_usb_watch_create(drv_usb_event_fn fn, void *user, drv_usb_watch **out, char *err);
+void drv_usb_watch_destroy(drv_usb_watch *w);
+/* 1 when libusb's hotplug events are used, 0 when the watcher polls the bus. */
+int drv_usb_watch_hotplug(const drv_usb_watch *w);
+/* Waits up to timeout_ms for events (polling: re-enumerates at most once per poll_ms). */
+int drv_usb_watch_poll(drv_usb_watch *w, int timeout_ms, char *err);
+
+/* ---- the Kinect v1 motor */
+
+typedef struct drv_kinect_motor drv_kinect_motor;
+/* -ENODEV when no Kinect v1 motor (045e:02b0) is attached. */
+int drv_kinect_motor_open(drv_kinect_motor **out, char *err);
+void drv_kinect_motor_close(drv_kinect_motor *m);
+int drv_kinect_motor_led(drv_kinect_motor *m, int led, char *err);
+int drv_kinect_motor_tilt(drv_kinect_motor *m, double degrees, char *err);
+int drv_kinect_motor_state(drv_kinect_motor *m, drv_kinect_state *st, char *err);
 
 #ifdef __cplusplus
 }
