@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 
 PACKAGES=(build-essential meson ninja-build pkg-config clang libclang-rt-14-dev
           libopenblas-dev liblapacke-dev libcjson-dev libpng-dev
-          libwebsockets-dev libsystemd-dev libopenni2-dev libusb-1.0-0-dev
+          libwebsockets-dev libsystemd-dev libopenni2-dev libusb-1.0-0-dev liblo-dev liblo-tools
           chromium valgrind)
 
 setup_packages() {
