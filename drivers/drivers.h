@@ -126,6 +126,31 @@ const char *drv_state_name(drv_state st);
  * conventions. Controls (all four bits): "pause" (1/0), "seek" (frame index), "speed"
  * (0 < factor <= 100), "loop" (1/0). A frame that is more than 250 ms late re-anchors the clock rather than bursting. */
 
+/* ---- markers and VMC bones over OSC (osc/osc.c; docs/OSC.md) ----
+ * Spec: "osc:[HOST:]PORT[?markers=A,B,..&vmc=0|1&scale=M&stale=MS&gap=MS]". Binds a UDP socket
+ * (no HOST: every IPv4 interface; an IPv6 HOST in brackets; PORT 0 picks a free one, see
+ * drv_osc_port). Markers come as "/marker NAME x y z" (metres, Y up; "/marker NAME" alone: not
+ * seen), VMC bones as "/VMC/Ext/Bone/Pos" (+ "/VMC/Ext/Root/Pos") through forward kinematics.
+ * The marker set: markers= (default head, lhand, rhand, lfoot, rfoot, torso, the depth sources'
+ * labels), or with vmc=1 the 25 VMC body bones (Hips ... RightToes). A marker named like a VMC bone
+ * is fed by that bone. A top-level bundle is one frame; loose messages are framed by "/frame", by
+ * a marker set twice, or by gap ms of quiet (default 10). A marker older than stale ms (default
+ * 500, 0 = never) is invalid. Malformed packets are counted and dropped whole. No controls. */
+typedef struct drv_osc_counts {
+    uint64_t packets;       /* datagrams received */
+    uint64_t malformed;     /* datagrams that are not OSC 1.0 (dropped whole) */
+    uint64_t messages;      /* messages in well-formed datagrams */
+    uint64_t bad_messages;  /* known addresses with wrong arguments (dropped) */
+    uint64_t unknown_names; /* markers or bones not in the marker set / skeleton (ignored) */
+    uint64_t ignored;       /* other addresses */
+    uint64_t frames;        /* frames completed */
+    uint64_t coalesced;     /* frames replaced by a newer one before read (latest wins) */
+} drv_osc_counts;
+/* -EINVAL when s is not an open osc source. Read from the thread that reads the source. */
+int drv_osc_counts_get(const drv_source *s, drv_osc_counts *out);
+/* The bound UDP port, or -EINVAL. */
+int drv_osc_port(const drv_source *s);
+
 #ifdef __cplusplus
 }
 #endif

@@ -23,6 +23,9 @@ extern const drv_source_ops drv_fakenect_ops;
 extern const drv_source_ops drv_v4l2_ops;
 extern const drv_source_ops drv_openni2_ops;
 
+/* markers and VMC bones over OSC (osc/) */
+extern const drv_source_ops drv_osc_ops;
+
 static const drv_source_ops *const registry[] = {
     /* replay of marker files */
     &drv_replay_ops,
@@ -30,6 +33,8 @@ static const drv_source_ops *const registry[] = {
     &drv_fakenect_ops,
     &drv_v4l2_ops,
     &drv_openni2_ops,
+    /* markers and VMC bones over OSC */
+    &drv_osc_ops,
     NULL,
 };
 

@@ -1,8 +1,11 @@
 // viewer.js - the meshsteer browser viewer: connects to the daemon's /stream (docs/PROTOCOL.md),
-// shows the synthesised mesh (lit, orbit camera), the incoming markers as dots, optional colouring
-// by model part, and an overlay with fps, end-to-end latency, dropped frames and how many markers
-// are bound (its tooltip: which live label drives each). It reconnects by
-// itself (the camera is kept) and exposes its counters as window.meshsteer for tests.
+// shows the synthesised mesh (lit, smooth normals, soft shadows on a ground grid, orbit camera), the
+// incoming markers as dots, optional colouring by model part, and an overlay with fps, end-to-end
+// latency (and a sparkline of both), dropped frames, how many markers are bound (its tooltip: which
+// live label drives each), the model kind and what drives it. Playback controls (pause/resume, seek,
+// speed) appear for the controls the hello's source.controls offers; a screenshot button saves a PNG
+// and a record button a WebM clip (MediaRecorder). It reconnects by itself (the camera is kept) and
+// exposes its counters as window.meshsteer for tests.
 import * as THREE from './node_modules/three/build/three.module.js';
 import { Orbit } from './orbit.js';
 import * as P from './protocol.js';
@@ -16,23 +19,59 @@ const stats = {
   errors: 0, lastError: '',
   latencyMs: NaN,     // capture -> on screen, smoothed; NaN until the clock offset is known
   fps: 0, generation: 0, encoding: params.get('encoding') === 'int16' ? 'int16' : 'float32',
-  nv: 0, nf: 0, nm: 0, lastSeq: 0, model: '',
+  nv: 0, nf: 0, nm: 0, lastSeq: 0, lastCaptureUs: 0, model: '',
   bound: 0,           // model markers bound to a live label (hello markers[].bound)
   controls: [],       // the source controls the hello offers (source.controls)
+  kind: '',           // model kind (hello model.kind; protocol-1 servers without it run 'steer')
+  driver: '',         // 'tracked', or 'reference lost' / 'held' from the frame flags
+  sourceFrames: 0,    // frames of the source (hello source.frames, else learned from a seek probe)
+  paused: false, speed: 1, position: NaN, // the playback state as the viewer last set it
+  acks: 0,            // control requests acknowledged
+  framesSinceAck: 0,  // frames received after the last ack
+  screenshots: 0, lastShotBytes: 0, clips: 0, lastClipBytes: 0, lastClipType: '',
+  history: [],        // [fps, latency ms] every 0.5 s, the last 60 (the sparkline)
+  shadows: false, grid: false, smoothGroups: 0,
 };
 window.meshsteer = stats;
+// the newest decoded markers (model marker order) and their live labels, for tests
+window.meshsteerMarkers = () => ({ xyz: Array.from(decoded.markers || []), valid: Array.from(decoded.valid || []),
+                                   live: stats.live });
+
+const el = id => document.getElementById(id);
 
 // ---- three.js scene
 const view = document.getElementById('view');
 const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
 renderer.setPixelRatio(window.devicePixelRatio);
+renderer.shadowMap.enabled = true;
+renderer.shadowMap.type = THREE.PCFSoftShadowMap;
+// Shadows cost a second pass over the mesh: in software WebGL (SwiftShader, headless browsers and
+// machines without a GPU) the map is smaller and is redrawn every second frame, out of sight.
+const gl = renderer.getContext(), dbg = gl.getExtension('WEBGL_debug_renderer_info');
+const software = /swiftshader|llvmpipe|software/i.test(dbg ? gl.getParameter(dbg.UNMASKED_RENDERER_WEBGL) : '');
+renderer.shadowMap.autoUpdate = false;
+let shadowTick = 0;
+stats.shadows = true;
 view.appendChild(renderer.domElement);
 const scene = new THREE.Scene();
 scene.background = new THREE.Color(0x20242a);
 scene.add(new THREE.HemisphereLight(0xffffff, 0x404650, 1.2));
 const sun = new THREE.DirectionalLight(0xffffff, 2.0);
 sun.position.set(3, 5, 4);
-scene.add(sun);
+sun.castShadow = true;
+sun.shadow.mapSize.set(software ? 512 : 2048, software ? 512 : 2048);
+sun.shadow.radius = 4;
+sun.shadow.bias = -0.0005;
+scene.add(sun, sun.target);
+// the ground: a grid and a plane that only receives the shadow, both placed under the rest pose
+const ground = new THREE.Group();
+const shadowPlane = new THREE.Mesh(new THREE.PlaneGeometry(1, 1),
+                                   new THREE.ShadowMaterial({ color: 0x000000, opacity: 0.35 }));
+shadowPlane.rotation.x = -Math.PI / 2;
+shadowPlane.receiveShadow = true;
+ground.add(shadowPlane);
+scene.add(ground);
+let grid = null;
 const camera = new THREE.PerspectiveCamera(40, 1, 0.01, 1000);
 let dirty = true;
 const orbit = new Orbit(camera, renderer.domElement, () => { dirty = true; });
@@ -45,6 +84,7 @@ let pending = null; // newest decoded frame header not yet drawn
 const partsBox = document.getElementById('c-parts');
 const markersBox = document.getElementById('c-markers');
 const int16Box = document.getElementById('c-int16');
+const groundBox = document.getElementById('c-ground');
 int16Box.checked = stats.encoding === 'int16';
 
 function partColours(parts, nparts) {
@@ -71,6 +111,7 @@ function buildMesh(t) {
                                                vertexColors: partsBox.checked, side: THREE.DoubleSide });
   mesh = new THREE.Mesh(g, mat);
   mesh.frustumCulled = false;
+  mesh.castShadow = true;
   scene.add(mesh);
   const pg = new THREE.BufferGeometry();
   const mpos = new THREE.BufferAttribute(new Float32Array(Math.max(1, t.nm) * 3), 3);
@@ -93,12 +134,74 @@ function buildMesh(t) {
     min[a] = Math.min(min[a], t.rest[i]); max[a] = Math.max(max[a], t.rest[i]);
   }
   orbit.frame(min, max);
+  placeGround(min, max);
+  smoothGroups(t);
   dirty = true;
+}
+
+// a grid of 10 lines per model size under the rest pose, and the sun's shadow camera around it
+function placeGround(min, max) {
+  const size = Math.max(max[0] - min[0], max[2] - min[2], max[1] - min[1], 1e-3);
+  const cx = (min[0] + max[0]) / 2, cz = (min[2] + max[2]) / 2, extent = size * 4;
+  if (grid) { ground.remove(grid); grid.geometry.dispose(); grid.material.dispose(); }
+  const step = Math.pow(10, Math.floor(Math.log10(size / 2)));
+  const divisions = Math.min(400, Math.round(extent / step));
+  grid = new THREE.GridHelper(divisions * step, divisions, 0x6a7380, 0x3a4048);
+  grid.position.set(cx, 0, cz);
+  ground.add(grid);
+  stats.grid = true;
+  shadowPlane.scale.set(extent, extent, 1);
+  shadowPlane.position.set(cx, 0.001 * size, cz);
+  ground.position.y = min[1];
+  const cam = sun.shadow.camera, r = size * 1.5;
+  cam.left = -r; cam.right = r; cam.top = r; cam.bottom = -r;
+  cam.near = 0.01; cam.far = size * 20;
+  cam.updateProjectionMatrix();
+  sun.target.position.set(cx, (min[1] + max[1]) / 2, cz);
+  sun.position.set(cx + size * 0.6, max[1] + size * 3, cz + size * 1.2); // high: the shadow lies under it
+  ground.visible = groundBox.checked;
+}
+
+// Smooth normals: computeVertexNormals averages the faces around each vertex, but a mesh whose
+// vertices are split at seams (OBJ with per-face normals or UVs) would still show its seams; the
+// copies of one rest position share one normal (groups found once per topology).
+let dupFrom = null, dupTo = null;
+function smoothGroups(t) {
+  const first = new Map(), from = [], to = [];
+  for (let i = 0; i < t.nv; i++) {
+    const key = `${t.rest[3 * i]},${t.rest[3 * i + 1]},${t.rest[3 * i + 2]}`;
+    const j = first.get(key);
+    if (j === undefined) first.set(key, i); else { from.push(i); to.push(j); }
+  }
+  dupFrom = from.length ? Int32Array.from(from) : null;
+  dupTo = from.length ? Int32Array.from(to) : null;
+  stats.smoothGroups = from.length;
+}
+function normals(g) {
+  g.computeVertexNormals();
+  if (!dupFrom) return;
+  const n = g.attributes.normal.array;
+  for (let k = 0; k < dupFrom.length; k++) { // accumulate the copies into the first ...
+    const a = 3 * dupFrom[k], b = 3 * dupTo[k];
+    n[b] += n[a]; n[b + 1] += n[a + 1]; n[b + 2] += n[a + 2];
+  }
+  for (let k = 0; k < dupFrom.length; k++) { // ... normalise it and copy it back
+    const a = 3 * dupFrom[k], b = 3 * dupTo[k];
+    const l = Math.hypot(n[b], n[b + 1], n[b + 2]) || 1;
+    n[a] = n[b] / l; n[a + 1] = n[b + 1] / l; n[a + 2] = n[b + 2] / l;
+  }
+  for (let k = 0; k < dupFrom.length; k++) {
+    const b = 3 * dupTo[k];
+    const l = Math.hypot(n[b], n[b + 1], n[b + 2]) || 1;
+    n[b] /= l; n[b + 1] /= l; n[b + 2] /= l;
+  }
+  g.attributes.normal.needsUpdate = true;
 }
 
 partsBox.addEventListener('change', () => {
   if (mesh) { mesh.material.vertexColors = partsBox.checked; mesh.material.needsUpdate = true; dirty = true; }
 });
+groundBox.addEventListener('change', () => { ground.visible = groundBox.checked; dirty = true; });
 markersBox.addEventListener('change', () => { if (points) { points.visible = markersBox.checked; dirty = true; } });
 int16Box.addEventListener('change', () => {
   stats.encoding = int16Box.checked ? 'int16' : 'float32';
@@ -172,8 +275,12 @@ function onText(msg) {
     stats.model = msg.model.name;
     stats.nm = msg.markers.length;
     stats.bound = msg.markers.filter(m => m.bound).length;
+    stats.live = msg.markers.map(m => m.live ?? m.source);
     stats.controls = Array.isArray(msg.source && msg.source.controls) ? msg.source.controls : [];
     document.getElementById('title').textContent = `meshsteer – ${msg.model.name}`;
+    stats.kind = msg.model.kind || 'steer';
+    el('o-kind').textContent = `${msg.model.name} (${stats.kind})`;
+    setupPlayback(msg.source || {});
     // which live marker drives each model marker (live: protocol 1 servers that know label maps)
     const mk = document.getElementById('o-markers');
     mk.textContent = `${stats.bound} of ${stats.nm} bound`;
@@ -185,7 +292,13 @@ function onText(msg) {
     pingOpen = false;
     if (rtt < bestRtt) { bestRtt = rtt; offsetMs = msg.server_us / 1000 - (pingSent + now) / 2; }
     if (pingBurst > 0 && --pingBurst > 0) ping();
+  } else if (msg.type === 'ack') {
+    stats.acks++;
+    stats.framesSinceAck = 0; // the server acks after it applied the control; frames follow in order
   } else if (msg.type === 'error') {
+    // the answer to the frame-count probe (setupPlayback) names the source's frames
+    const m = msg.id === 'frames-probe' && /the (\d+) frames/.exec(msg.message || '');
+    if (m) { setSeekRange(Number(m[1])); return; }
     stats.errors++;
     stats.lastError = `${msg.code}: ${msg.message}`;
   }
@@ -204,6 +317,10 @@ function onBinary(buf) {
     stats.dropped += h.skipped;
     if (pending) stats.dropped++; // replaced before it was drawn
     stats.lastSeq = h.seq;
+    stats.lastCaptureUs = h.tCapture;
+    stats.framesSinceAck++;
+    // flags bit 0: reference lost (the body pose is kept), bit 2: held (missing markers replaced)
+    stats.driver = h.flags & 1 ? 'reference lost' : h.flags & 4 ? 'tracked (held)' : 'tracked';
     pending = h;
   }
 }
@@ -222,14 +339,13 @@ window.addEventListener('resize', resize);
 resize();
 
 let fpsCount = 0, fpsT0 = performance.now();
-const el = id => document.getElementById(id);
 function draw() {
   requestAnimationFrame(draw);
   if (pending && mesh) {
     const pos = mesh.geometry.attributes.position;
     pos.array.set(decoded.V);
     pos.needsUpdate = true;
-    mesh.geometry.computeVertexNormals();
+    normals(mesh.geometry);
     const mp = points.geometry.attributes.position;
     let n = 0;
     for (let i = 0; i < topo.nm; i++)
@@ -250,7 +366,11 @@ function draw() {
     fpsCount++;
     dirty = true;
   }
-  if (dirty) { renderer.render(scene, camera); dirty = false; }
+  if (dirty) {
+    if (!software || (shadowTick++ & 1) === 0) renderer.shadowMap.needsUpdate = true;
+    renderer.render(scene, camera);
+    dirty = false;
+  }
   const now = performance.now();
   if (now - fpsT0 >= 500) {
     stats.fps = fpsCount * 1000 / (now - fpsT0);
@@ -260,7 +380,133 @@ function draw() {
     el('o-dropped').textContent = String(stats.dropped);
     el('o-frames').textContent = String(stats.frames);
     el('o-encoding').textContent = stats.encoding;
+    el('o-driver').textContent = stats.driver || '–';
+    stats.history.push([stats.fps, stats.latencyMs]);
+    if (stats.history.length > 60) stats.history.shift();
+    sparkline();
+    showPosition();
   }
 }
+// ---- the sparkline: fps (green, 0..max(60, seen)) and latency (orange, 0..max seen), 30 s
+const spark = el('spark'), sg = spark.getContext('2d');
+function sparkline() {
+  const w = spark.width, h = spark.height, hs = stats.history;
+  sg.clearRect(0, 0, w, h);
+  const line = (k, top, colour) => {
+    sg.strokeStyle = colour;
+    sg.lineWidth = 1.5;
+    sg.beginPath();
+    let started = false;
+    hs.forEach((v, i) => {
+      if (!Number.isFinite(v[k])) return;
+      const x = w - (hs.length - 1 - i) * (w / 59), y = h - 2 - (h - 4) * Math.min(1, v[k] / top);
+      if (started) sg.lineTo(x, y); else { sg.moveTo(x, y); started = true; }
+    });
+    sg.stroke();
+  };
+  const maxOf = k => Math.max(...hs.map(v => (Number.isFinite(v[k]) ? v[k] : 0)));
+  line(0, Math.max(60, maxOf(0)), '#7bd88f');
+  line(1, Math.max(10, maxOf(1) * 1.1), '#ffb454');
+}
+
+// ---- playback: the controls the source takes (hello source.controls), state kept by the viewer
+const bar = el('playback'), pauseBtn = el('b-pause'), seekBar = el('seek'), speedSel = el('speed');
+let posAt = 0; // performance.now() when stats.position was last set
+function setSeekRange(n) {
+  stats.sourceFrames = n;
+  seekBar.max = String(Math.max(0, n - 1));
+  seekBar.disabled = !(n > 0 && stats.controls.includes('seek'));
+}
+function setupPlayback(src) {
+  const c = stats.controls;
+  bar.hidden = c.length === 0;
+  pauseBtn.hidden = !c.includes('pause') && !c.includes('resume');
+  seekBar.hidden = !c.includes('seek');
+  el('pos').hidden = !c.includes('seek');
+  speedSel.hidden = !c.includes('speed');
+  stats.fpsSource = src.fps || 0;
+  setSeekRange(Number.isInteger(src.frames) ? src.frames : 0);
+  // Protocol-1 hellos name no frame count: a seek far past the end is refused with a message that
+  // names it ("... outside the N frames ..."), and changes nothing.
+  if (c.includes('seek') && !Number.isInteger(src.frames))
+    send({ type: 'seek', frame: 2000000000, id: 'frames-probe' });
+  pauseBtn.textContent = stats.paused ? 'resume' : 'pause';
+}
+function showPosition() {
+  if (!Number.isFinite(stats.position) || !stats.sourceFrames) { el('pos').textContent = '–'; return; }
+  let p = stats.position;
+  if (!stats.paused) p += (performance.now() - posAt) / 1000 * (stats.fpsSource || 30) * stats.speed;
+  p = Math.floor(p) % stats.sourceFrames;
+  el('pos').textContent = `${p} / ${stats.sourceFrames}`;
+  if (document.activeElement !== seekBar) seekBar.value = String(p);
+}
+function setPosition(p) {
+  if (Number.isFinite(stats.position) && !stats.paused)
+    p ??= stats.position + (performance.now() - posAt) / 1000 * (stats.fpsSource || 30) * stats.speed;
+  stats.position = p ?? stats.position;
+  posAt = performance.now();
+}
+pauseBtn.addEventListener('click', () => {
+  setPosition();
+  stats.paused = !stats.paused;
+  send({ type: stats.paused ? 'pause' : 'resume' });
+  pauseBtn.textContent = stats.paused ? 'resume' : 'pause';
+});
+seekBar.addEventListener('change', () => {
+  const f = Number(seekBar.value);
+  send({ type: 'seek', frame: f });
+  setPosition(f);
+});
+speedSel.addEventListener('change', () => {
+  setPosition();
+  stats.speed = Number(speedSel.value);
+  send({ type: 'speed', speed: stats.speed });
+});
+
+// ---- capture: a PNG of the view, a WebM clip of it
+function download(blob, name) {
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(blob);
+  a.download = name;
+  document.body.appendChild(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+}
+const stamp = () => new Date().toISOString().replace(/[:.]/g, '-');
+el('b-shot').addEventListener('click', () => {
+  renderer.render(scene, camera);
+  renderer.domElement.toBlob(b => {
+    if (!b) return;
+    stats.screenshots++;
+    stats.lastShotBytes = b.size;
+    download(b, `meshsteer-${stamp()}.png`);
+  }, 'image/png');
+});
+let recorder = null;
+const clipBtn = el('b-clip');
+clipBtn.addEventListener('click', () => {
+  if (recorder) { recorder.stop(); return; }
+  const type = ['video/webm;codecs=vp9', 'video/webm;codecs=vp8', 'video/webm']
+    .find(t => window.MediaRecorder && MediaRecorder.isTypeSupported(t));
+  if (!type) { stats.errors++; stats.lastError = 'this browser records no WebM'; return; }
+  const chunks = [];
+  recorder = new MediaRecorder(renderer.domElement.captureStream(30), { mimeType: type });
+  recorder.ondataavailable = e => { if (e.data.size) chunks.push(e.data); };
+  recorder.onstop = () => {
+    const b = new Blob(chunks, { type: 'video/webm' });
+    stats.clips++;
+    stats.lastClipBytes = b.size;
+    stats.lastClipType = type;
+    recorder = null;
+    clipBtn.textContent = 'record clip';
+    clipBtn.classList.remove('on');
+    download(b, `meshsteer-${stamp()}.webm`);
+  };
+  recorder.start(250);
+  clipBtn.textContent = 'stop';
+  clipBtn.classList.add('on');
+});
+
 connect();
 requestAnimationFrame(draw);

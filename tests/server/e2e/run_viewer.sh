@@ -54,4 +54,5 @@ port=$("$dir/start.sh" 0)
 # the restart keeps the port, as a systemd restart would
 export MESHSTEER_RESTART_CMD="kill \$(cat '$dir/pid'); sleep 1; '$dir/start.sh' $port >/dev/null"
 export MESHSTEER_WEB_DIR=$web
+export MESHSTEER_MARKERS=$dir/trot.csv  # what the source replays (the playback checks match it)
 node "$here/viewer.mjs" "http://127.0.0.1:$port/" "$shot"
