@@ -349,7 +349,7 @@ static void test_specs(void)
     }
     ASSERT_OK(drv_source_open("osc:[::1]:0?markers=a,b,LeftHand&scale=0.001", &s, err), err);
     ASSERT_INT_EQ(s->count, 3);
-    ASSERT(drv_source_control(s, "pause", 1, err) == -ENOTSUP);
+    ASSERT(drv_source_control(s, DRV_CTL_PAUSE, 1, err) == -ENOTSUP);
     drv_source_close(s);
     printf("specs: %zu bad specs refused with a message\n", sizeof bad / sizeof *bad);
 }
