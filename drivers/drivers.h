@@ -84,6 +84,7 @@ struct drv_source {
     int detached;         /* the device was released by drv_source_reopen and none is open yet */
     unsigned controls;    /* DRV_CTL_* bits this source takes (0: none), set by open */
     unsigned caps;        /* DRV_CAP_* bits, set by open */
+    int frames;           /* frames of a recording (what "seek" ranges over), 0 for a live source */
 };
 
 /* spec: "scheme:argument", e.g. "replay:walk.c3d?loop=1&speed=0.5&start=10". */

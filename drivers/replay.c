@@ -165,6 +165,7 @@ static int replay_open(drv_source *s, const char *arg, char *err)
     s->names = (const char **)r->m->names;
     s->fps = r->fps;
     s->controls = DRV_CTL_PAUSE | DRV_CTL_SEEK | DRV_CTL_SPEED | DRV_CTL_LOOP;
+    s->frames = r->m->frames;
     return 0;
 }
 

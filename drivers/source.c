@@ -123,6 +123,7 @@ int drv_source_reopen(drv_source *s, const char *spec, char *err)
     s->fps = t->fps;
     s->controls = t->controls;
     s->caps = t->caps;
+    s->frames = t->frames;
     s->detached = 0;
     s->state = DRV_STATE_OPEN;
     free(t);

@@ -96,6 +96,7 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
     cJSON_AddStringToObject(s, "scheme", src && src->scheme ? src->scheme : "");
     cJSON_AddNumberToObject(s, "fps", src ? src->fps : 0);
     cJSON_AddNumberToObject(s, "markers", src ? src->count : 0);
+    cJSON_AddNumberToObject(s, "frames", src ? src->frames : 0);
     cJSON *ctl = cJSON_AddArrayToObject(s, "controls");
     for (int i = 0; src && i < SRV_SOURCE_CONTROLS; i++)
         if (src->controls & SRV_CTL_BIT(srv_source_controls[i]))

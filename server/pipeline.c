@@ -120,6 +120,7 @@ int srv_source_info_init(srv_source_info *si, const drv_source *src, const char 
     snprintf(si->scheme, sizeof si->scheme, "%s", src->ops->scheme);
     si->count = src->count;
     si->fps = src->fps;
+    si->frames = src->frames;
     si->caps = src->caps;
     si->controls = src->ops->control ? srv_controls_of_source(src->controls) : 0;
     si->names = calloc((size_t)src->count + 1, sizeof *si->names);
@@ -261,6 +262,7 @@ int srv_pipeline_load(const char *model_path, const char *labels, const srv_sour
         .spec = src->spec,
         .scheme = src->scheme,
         .fps = src->fps,
+        .frames = src->frames,
         .count = src->count,
         .names = (const char *const *)src->names,
         .controls = src->controls,

@@ -44,6 +44,7 @@ typedef struct srv_source_info {
     int count;
     char **names;       /* count labels */
     double fps;
+    int frames;         /* frames of a recording, 0 for a live source */
     unsigned caps;      /* DRV_CAP_* */
     unsigned controls;  /* SRV_CTL_BIT()s accepted when opened */
 } srv_source_info;

@@ -60,7 +60,7 @@ int main(void)
     const uint8_t bound[3] = {1, 0, 1}; /* a -> source 2, b unbound, c -> source 0 */
     const char *names[3] = {"C", "X", "A"};
     const char *lookup[3] = {"A", "cam_b", "C"}; /* b looks up cam_b, which the source lacks */
-    srv_source_desc src = {"replay:x.csv", "replay", 60, 3, names,
+    srv_source_desc src = {"replay:x.csv", "replay", 60, 240, 3, names,
                            SRV_CTL_BIT(SRV_CTL_PAUSE) | SRV_CTL_BIT(SRV_CTL_RESUME) |
                                SRV_CTL_BIT(SRV_CTL_SPEED),
                            lookup, bound, 0};
@@ -77,10 +77,11 @@ int main(void)
     ASSERT(strstr((char *)g->hello, "{\"name\":\"a\",\"source\":\"A\",\"live\":\"A\",\"bound\":true}"));
     /* exactly the controls the source takes, in the documented order */
     ASSERT(strstr((char *)g->hello, "\"controls\":[\"pause\",\"resume\",\"speed\"]"));
+    ASSERT(strstr((char *)g->hello, "\"frames\":240"));
     ASSERT_INT_EQ(strlen((char *)g->hello), g->hello_len);
     {
         /* no label map (live = the marker's own label) and a source without controls */
-        srv_source_desc plain = {"openni2:", "openni2", 30, 3, names, 0, NULL, bound, 0};
+        srv_source_desc plain = {"openni2:", "openni2", 30, 0, 3, names, 0, NULL, bound, 0};
         srv_gen *g2 = NULL;
         ASSERT_OK(srv_gen_create(&info, &plain, 8, &g2, err), err);
         ASSERT(strstr((char *)g2->hello, "{\"name\":\"b\",\"source\":\"b\",\"live\":\"b\",\"bound\":false}"));
