@@ -130,9 +130,12 @@ void harness_start(harness *h, const char *meshsteerd, const char *const *args)
     }
     for (int t = 0; t < 300; t++) { /* up to 30 s: the model loads first */
         char *s = slurp(h->log);
-        const char *p = s ? strstr(s, "listening on http://127.0.0.1:") : NULL;
-        if (p) {
-            h->port = atoi(p + strlen("listening on http://127.0.0.1:"));
+        /* "listening on http://ADDR:PORT/", ADDR an IPv4 address or [IPv6] */
+        const char *p = s ? strstr(s, "listening on http://") : NULL;
+        const char *slash = p ? strchr(p + strlen("listening on http://"), '/') : NULL;
+        const char *colon = slash ? memrchr(p, ':', (size_t)(slash - p)) : NULL;
+        if (colon) {
+            h->port = atoi(colon + 1);
             free(s);
             return;
         }

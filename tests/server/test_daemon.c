@@ -18,6 +18,9 @@
  *            unused entry logged as a warning; the hello's markers[].live names cam_<name>), and
  *            keeps the map over a SIGHUP reload; a map leaving one marker unbound (bound false, live
  *            the label looked for); the same map from a config file's `labels =`
+ *   listen   --listen binds exactly the address asked (the kernel's socket table, /proc/net/tcp and
+ *            tcp6): 127.0.0.1:PORT and a bare PORT (the default address) an IPv4 loopback socket
+ *            and no IPv6 one; [::1]:PORT an IPv6 loopback socket and no IPv4 one
  *   horse    real data: a model trained on shared/data/meshes/horse-gallop (meshsteer train)
  *            replaying its own rig markers at 60 Hz (meshsteer markers); hello, topology and
  *            frames of the horse's 8,431 vertices, each frame close to the ground-truth mesh of
@@ -1032,6 +1035,68 @@ static void scenario_horse(const char *meshsteer)
     mdl_markers_destroy(mk);
 }
 
+/* ------------------------------------------------------------------ listen */
+
+/* The local addresses (hex, as /proc/net/tcp prints them) of the LISTEN sockets on port in table
+ * ("tcp" or "tcp6"), space-separated, into out. */
+static void listening(const char *table, int port, char *out, size_t n)
+{
+    char path[64], line[512];
+    snprintf(path, sizeof path, "/proc/net/%s", table);
+    out[0] = '\0';
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return; /* no IPv6 in this kernel: nothing listens there */
+    while (fgets(line, sizeof line, f)) {
+        char local[128], remote[128], st[8];
+        if (sscanf(line, " %*[0-9]: %127s %127s %7s", local, remote, st) != 3 || strcmp(st, "0A"))
+            continue;
+        char *colon = strrchr(local, ':');
+        if (!colon || (int)strtol(colon + 1, NULL, 16) != port)
+            continue;
+        *colon = '\0';
+        size_t len = strlen(out);
+        snprintf(out + len, n - len, "%s%s", len ? " " : "", local);
+    }
+    fclose(f);
+}
+
+static void expect_listening(const char *listen, const char *want4, const char *want6)
+{
+    char model[1200], source[1200], got4[512], got6[512];
+    snprintf(model, sizeof model, "%s/model.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?loop=1", H.dir);
+    const char *args[] = {"--model", model, "--source", source, "--listen", listen, NULL};
+    harness_start(&H, meshsteerd, args);
+    listening("tcp", H.port, got4, sizeof got4);
+    listening("tcp6", H.port, got6, sizeof got6);
+    printf("listen %s: port %d, tcp [%s], tcp6 [%s]\n", listen, H.port, got4, got6);
+    expect_str(got4, want4);
+    expect_str(got6, want6);
+    if (*want4) { /* and it answers there */
+        char *body;
+        ASSERT_INT_EQ(harness_get(&H, "/healthz", &body), 200);
+        free(body);
+    }
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+}
+
+static void scenario_listen(void)
+{
+    expect_listening("127.0.0.1:0", "0100007F", "");
+    expect_listening("0", "0100007F", ""); /* the default address */
+    /* IPv6 only where the machine has ::1 */
+    int fd = socket(AF_INET6, SOCK_STREAM, 0);
+    struct sockaddr_in6 sa = {.sin6_family = AF_INET6, .sin6_addr = IN6ADDR_LOOPBACK_INIT};
+    int v6 = fd >= 0 && bind(fd, (struct sockaddr *)&sa, sizeof sa) == 0;
+    if (fd >= 0)
+        close(fd);
+    if (v6)
+        expect_listening("[::1]:0", "", "00000000000000000000000001000000");
+    else
+        printf("listen: no IPv6 loopback here, [::1] not tried\n");
+}
+
 static void kill_daemon(void)
 {
     if (H.pid > 0 && kill(H.pid, 0) == 0)
@@ -1042,7 +1107,7 @@ int main(int argc, char **argv)
 {
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
-                        "stream|slow|record|limits|origin|idle|config|labels|horse [MESHSTEER]\n");
+                        "stream|slow|record|limits|origin|idle|config|labels|listen|horse [MESHSTEER]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
@@ -1072,6 +1137,8 @@ int main(int argc, char **argv)
         scenario_config();
     else if (!strcmp(argv[3], "labels"))
         scenario_labels();
+    else if (!strcmp(argv[3], "listen"))
+        scenario_listen();
     else if (!strcmp(argv[3], "horse"))
         scenario_horse(argv[4]);
     else
