@@ -172,6 +172,14 @@ unsigned drv_control_bit(const char *key)
     return 0;
 }
 
+int drv_speed_check(double speed, char *err)
+{
+    if (!(speed >= DRV_SPEED_MIN && speed <= DRV_SPEED_MAX))
+        return drv__err(err, -ERANGE, "speed %g outside [%g, %g]", speed, DRV_SPEED_MIN,
+                        DRV_SPEED_MAX);
+    return 0;
+}
+
 int drv_source_control(drv_source *s, const char *key, double value, char *err)
 {
     if (!s || !key)
@@ -181,6 +189,11 @@ int drv_source_control(drv_source *s, const char *key, double value, char *err)
                         s->controls ? "" : " (it takes no controls)");
     if (s->detached)
         return drv__err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
+    if (!strcmp(key, "speed")) {
+        char why[DRV_ERR_LEN];
+        if (drv_speed_check(value, why))
+            return drv__err(err, -ERANGE, "source %s: %s", s->ops->scheme, why);
+    }
     int r = s->ops->control(s, key, value, err);
     /* a seek may revive a replay that had ended */
     if (r == 0 && s->state == DRV_STATE_ENDED && !strcmp(key, "seek"))

@@ -131,8 +131,10 @@ int srv_control_parse(const char *txt, size_t len, srv_control *out, const char 
         out->value = v->valuedouble;
         break;
     case SRV_CTL_SPEED:
-        if (!cJSON_IsNumber(v) || !(v->valuedouble > 0) || v->valuedouble > 100) {
-            r = fail(code, "bad_field", msg, msglen, "field 'speed' must be a number in (0, 100]");
+        /* its range is the source's (DRV_SPEED_MIN ... DRV_SPEED_MAX, drivers.h), checked in one
+         * place for this message and the source's speed= option: drv_source_control */
+        if (!cJSON_IsNumber(v) || !isfinite(v->valuedouble)) {
+            r = fail(code, "bad_field", msg, msglen, "field 'speed' must be a number");
             goto done;
         }
         out->value = v->valuedouble;

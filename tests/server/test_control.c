@@ -49,8 +49,9 @@ int main(void)
         {"{\"type\":\"seek\",\"frame\":1.5}", "bad_field", "seek"},
         {"{\"type\":\"seek\",\"frame\":\"10\"}", "bad_field", "seek"},
         {"{\"type\":\"seek\",\"frame\":1e12}", "bad_field", "seek"},
-        {"{\"type\":\"speed\",\"speed\":0}", "bad_field", "speed"},
-        {"{\"type\":\"speed\",\"speed\":101}", "bad_field", "speed"},
+        /* the range is the source's (drv_source_control), the type is the message's */
+        {"{\"type\":\"speed\",\"speed\":\"2\"}", "bad_field", "speed"},
+        {"{\"type\":\"speed\",\"speed\":true}", "bad_field", "speed"},
         {"{\"type\":\"ping\",\"id\":{}}", "bad_field", NULL},
         {"{\"type\":\"ping\",\"id\":\"0123456789012345678901234567890123456789012345678901234567890123456789\"}",
          "bad_field", NULL},

@@ -263,6 +263,22 @@ static void scenario_stream(void)
     run_until(ctx, A, A->total_frames + 20, 0, 5000);
     send_and_expect(ctx, B, "{\"type\":\"speed\",\"speed\":1}", "ack", NULL);
 
+    /* speed: one range, [0.001, 100], for the message as for the URL option; and no speed stalls
+     * the source: from 0.001 (a frame every 33 s) back to 1, frames come at once (they did
+     * after 33 s; after 1e-300, never) */
+    send_and_expect(ctx, B, "{\"type\":\"speed\",\"speed\":0}", "error", "source_error");
+    ASSERT(strstr(last_text(B), "outside [0.001, 100]"));
+    send_and_expect(ctx, B, "{\"type\":\"speed\",\"speed\":1e-300}", "error", "source_error");
+    send_and_expect(ctx, B, "{\"type\":\"speed\",\"speed\":101}", "error", "source_error");
+    send_and_expect(ctx, B, "{\"type\":\"speed\",\"speed\":0.001}", "ack", NULL);
+    wsc_run(ctx, 500, NULL, NULL);
+    send_and_expect(ctx, B, "{\"type\":\"speed\",\"speed\":1}", "ack", NULL);
+    uint64_t t_resume = wsc_now_us();
+    run_until(ctx, A, A->total_frames + 10, 0, 3000);
+    printf("speed 0.001 then 1: 10 frames %.3f s after the ack\n",
+           (double)(wsc_now_us() - t_resume) * 1e-6);
+    ASSERT(wsc_now_us() - t_resume < 2000000);
+
     /* an oversized message closes only that connection, with 1009 */
     wsc *C = wsc_connect(ctx, H.port, NULL, 0);
     run_until(ctx, C, 1, 0, 5000);
