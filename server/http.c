@@ -31,7 +31,14 @@ static char *healthz(srv_daemon *d)
     drv_state st = srv_pipeline_source_state(d->pipe);
     srv_gen *g = srv_pipeline_current(d->pipe);
     int ok = st == DRV_STATE_STREAMING || st == DRV_STATE_OPEN || st == DRV_STATE_ENDED;
-    cJSON_AddStringToObject(h, "status", ok ? "ok" : "degraded");
+    char why[200];
+    int synth_bad = srv_pipeline_degraded(d->pipe, why, sizeof why);
+    cJSON_AddStringToObject(h, "status", ok && !synth_bad ? "ok" : "degraded");
+    if (synth_bad)
+        cJSON_AddStringToObject(h, "reason", why);
+    else if (!ok)
+        cJSON_AddStringToObject(h, "reason", st == DRV_STATE_LOST ? "the source is lost"
+                                                                  : "the source is not open");
     cJSON_AddNumberToObject(h, "protocol", SRV_PROTOCOL);
     cJSON_AddStringToObject(h, "version", MESHSTEER_VERSION);
     cJSON *m = cJSON_AddObjectToObject(h, "model");

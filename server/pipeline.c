@@ -73,6 +73,12 @@ struct srv_pipeline {
     char reload_path[SRV_PATH_LEN];
     char reload_labels[SRV_LABELS_MAX_LEN];
     atomic_uint next_gen;
+
+    /* synthesis health (synth_health): the run of frames synthesis refused, by the synthesis
+     * thread; degraded and its reason (under pub) for /healthz */
+    uint64_t fail_run, fail_logged_us;
+    atomic_int degraded;
+    char degraded_why[160];
 };
 
 uint64_t srv_now_us(void)
@@ -207,6 +213,7 @@ int srv_pipeline_load(const char *model_path, const char *labels, const drv_sour
         srv_bundle_fini(out);
         return srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
     }
+    memcpy(out->V, info.rest, (size_t)info.nv * 3 * sizeof(float)); /* the pose before any */
     return 0;
 }
 
@@ -384,6 +391,55 @@ static void swap_pending(srv_pipeline *p)
     }
 }
 
+/* After each synthesis step (r its result): a run of refused frames (no reference marker was
+ * ever valid, e.g. a source whose every marker is invalid) makes the pipeline degraded with the
+ * reason, logged at its start and then at most every 10 s; the first good frame ends it. The
+ * refused frames still go out with the last good pose (the rest pose before any), flagged
+ * reference lost, so clients see that the source is there but not tracked. */
+#define SYNTH_DEGRADED_AFTER 3
+#define SYNTH_LOG_EVERY_US 10000000u
+
+static void synth_health(srv_pipeline *p, const srv_bundle *b, int r)
+{
+    if (r == 0) {
+        if (p->fail_run >= SYNTH_DEGRADED_AFTER)
+            srv_log(SRV_LOG_NOTICE, "synthesis works again after %llu refused frames",
+                    (unsigned long long)p->fail_run);
+        p->fail_run = 0;
+        atomic_store(&p->degraded, 0);
+        return;
+    }
+    srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_FAILED], 1);
+    srv_log(SRV_LOG_DEBUG, "synthesis refused a frame (%d)", r);
+    if (++p->fail_run < SYNTH_DEGRADED_AFTER)
+        return;
+    int valid = 0;
+    for (int i = 0; i < b->gen->nm; i++)
+        valid += b->mv[i];
+    uint64_t now = srv_now_us();
+    if (p->fail_run == SYNTH_DEGRADED_AFTER || now - p->fail_logged_us >= SYNTH_LOG_EVERY_US) {
+        pthread_mutex_lock(&p->pub);
+        snprintf(p->degraded_why, sizeof p->degraded_why,
+                 "synthesis refuses every frame: the model's reference markers were never valid "
+                 "(%d of %d model markers valid)", valid, b->gen->nm);
+        pthread_mutex_unlock(&p->pub);
+        srv_log(SRV_LOG_WARN, "%llu frames in a row: %s; sending the last good pose (check the "
+                "source and --labels)", (unsigned long long)p->fail_run, p->degraded_why);
+        p->fail_logged_us = now;
+    }
+    atomic_store(&p->degraded, 1);
+}
+
+int srv_pipeline_degraded(srv_pipeline *p, char *why, size_t n)
+{
+    if (!atomic_load(&p->degraded))
+        return 0;
+    pthread_mutex_lock(&p->pub);
+    snprintf(why, n, "%s", p->degraded_why);
+    pthread_mutex_unlock(&p->pub);
+    return 1;
+}
+
 static void *synth_main(void *arg)
 {
     srv_pipeline *p = arg;
@@ -431,12 +487,10 @@ static void *synth_main(void *arg)
         }
         uint64_t t0 = srv_now_us();
         mdl_synth_info si = {0};
-        int r = mdl_synth_frame(b->synth, b->mk, b->mv, b->V, &si);
-        if (r != 0) {
-            srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_FAILED], 1);
-            srv_log(SRV_LOG_DEBUG, "synthesis refused a frame (%d)", r);
-            continue;
-        }
+        int r = mdl_synth_frame(b->synth, b->mk, b->mv, b->V, &si); /* V kept when refused */
+        synth_health(p, b, r);
+        if (r != 0)
+            si.reference_lost = 1;
         srv_frame *f = srv_gen_free_frame(g);
         if (!f) { /* cannot happen with SRV_POOL >= 3; count it rather than trust it */
             srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_BUSY], 1);
@@ -456,7 +510,8 @@ static void *synth_main(void *arg)
         p->seq++;
         pthread_mutex_unlock(&p->pub);
         srv_frame_unref(old);
-        srv_metrics_count(&p->m->frames_synth, 1);
+        if (r == 0)
+            srv_metrics_count(&p->m->frames_synth, 1);
         p->wake(p->wake_ud);
     }
     free(xyz);

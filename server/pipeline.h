@@ -74,6 +74,8 @@ int srv_pipeline_reload(srv_pipeline *p, const char *model_path, const char *lab
 int srv_pipeline_reload_done(srv_pipeline *p, int *ok, char *err);
 
 drv_state srv_pipeline_source_state(srv_pipeline *p);
+/* 1 while synthesis refuses every frame (its reason into why, n bytes), else 0. */
+int srv_pipeline_degraded(srv_pipeline *p, char *why, size_t n);
 const drv_source *srv_pipeline_source(srv_pipeline *p);
 /* The control kinds a source accepts, as SRV_CTL_BIT()s: pause and resume for DRV_CTL_PAUSE, seek
  * for DRV_CTL_SEEK, speed for DRV_CTL_SPEED (what the hello advertises). */

@@ -21,6 +21,10 @@
  *   listen   --listen binds exactly the address asked (the kernel's socket table, /proc/net/tcp and
  *            tcp6): 127.0.0.1:PORT and a bare PORT (the default address) an IPv4 loopback socket
  *            and no IPv6 one; [::1]:PORT an IPv6 loopback socket and no IPv4 one
+ *   invalid  real data: a source whose every marker is invalid (shared/data sample16/basketball.c3d,
+ *            every residual -1) bound by a label map: frames still come, flagged reference lost,
+ *            with the last good pose (the rest pose); /healthz is "degraded" with the reason; the
+ *            log says so once, not per frame. Skips (77) without the data.
  *   horse    real data: a model trained on shared/data/meshes/horse-gallop (meshsteer train)
  *            replaying its own rig markers at 60 Hz (meshsteer markers); hello, topology and
  *            frames of the horse's 8,431 vertices, each frame close to the ground-truth mesh of
@@ -1051,6 +1055,49 @@ static void scenario_horse(const char *meshsteer)
     mdl_markers_destroy(mk);
 }
 
+/* ------------------------------------------------------------------ invalid */
+
+static void scenario_invalid(void)
+{
+    const char *c3d = test_data("mocap/c3d/c3d.org/sample16/basketball.c3d");
+    char model[1200], source[1300];
+    snprintf(model, sizeof model, "%s/model.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s?loop=1", c3d);
+    const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0",
+                          "--labels", "lf_foot=2000,rf_foot=2001,lh_foot=2002,rh_foot=2003,"
+                          "head=2004,tail=2005,withers=2006,croup=2007", "-v", NULL};
+    harness_start(&H, meshsteerd, args);
+    struct lws_context *ctx = wsc_context();
+    ASSERT(ctx);
+    wsc *A = wsc_connect(ctx, H.port, NULL, 1);
+    run_until(ctx, A, 25, 0, 5000); /* 25 fps: a second of frames */
+    ASSERT_INT_EQ(A->protocol_errors, 0);
+    const float *rest = (const float *)(A->topo + 56);
+    for (int i = 0; i < A->nframes; i++) {
+        ASSERT(A->frames[i].flags & 1); /* reference lost */
+        for (int k = 0; k < A->nv * 3; k++)
+            ASSERT_NEAR_I(A->frames[i].V[k], rest[k], 1e-6, k);
+    }
+    char *body;
+    ASSERT_INT_EQ(harness_get(&H, "/healthz", &body), 200);
+    cJSON *hz = cJSON_Parse(body);
+    ASSERT(hz);
+    const char *status = cJSON_GetObjectItem(hz, "status")->valuestring;
+    const cJSON *reason = cJSON_GetObjectItem(hz, "reason");
+    printf("invalid: %d frames, /healthz %s: %s\n", A->nframes, status,
+           cJSON_IsString(reason) ? reason->valuestring : "(no reason)");
+    expect_str(status, "degraded");
+    ASSERT(cJSON_IsString(reason) && strstr(reason->valuestring, "reference markers"));
+    cJSON_Delete(hz);
+    free(body);
+    ASSERT(harness_metric(&H, "meshsteer_drops_total{reason=\"synth_failed\"}") >= 25);
+    ASSERT(harness_log_has(&H, "3 frames in a row: synthesis refuses every frame"));
+    ASSERT(!harness_log_has(&H, "4 frames in a row")); /* not per frame */
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(A);
+}
+
 /* ------------------------------------------------------------------ listen */
 
 /* The local addresses (hex, as /proc/net/tcp prints them) of the LISTEN sockets on port in table
@@ -1123,7 +1170,7 @@ int main(int argc, char **argv)
 {
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
-                        "stream|slow|record|limits|origin|idle|config|labels|listen|horse [MESHSTEER]\n");
+                        "stream|slow|record|limits|origin|idle|config|labels|listen|invalid|horse [MESHSTEER]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
@@ -1153,6 +1200,8 @@ int main(int argc, char **argv)
         scenario_config();
     else if (!strcmp(argv[3], "labels"))
         scenario_labels();
+    else if (!strcmp(argv[3], "invalid"))
+        scenario_invalid();
     else if (!strcmp(argv[3], "listen"))
         scenario_listen();
     else if (!strcmp(argv[3], "horse"))
