@@ -154,8 +154,29 @@ static void test_repro(void)
     }
 }
 
+/* A directory given as a file is named as one (it "was" 9223372036854775807 bytes, ftell's
+ * answer for a directory). */
+static void test_directory(void)
+{
+    char err[MDL_ERR_LEN] = "";
+    mdl_markers *m = NULL;
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s/tests/model/a-directory.c3d",
+             getenv("MESHSTEER_BUILD") ? getenv("MESHSTEER_BUILD") : ".");
+    mkdir(dir, 0755); /* may exist from an earlier run */
+    ASSERT(mdl_markers_read(dir, NULL, &m, err) != 0);
+    printf("directory: %s\n", err);
+    ASSERT(strstr(err, "is a directory"));
+    ASSERT(!strstr(err, "9223372036854775807"));
+    mdl_model *model = NULL;
+    ASSERT(mdl_model_load(dir, &model, err) != 0);
+    printf("directory as a model: %s\n", err);
+    ASSERT(strstr(err, "is a directory"));
+}
+
 int main(void)
 {
+    test_directory();
     test_unique_names();
     test_declared_counts();
     test_repro();
