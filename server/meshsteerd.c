@@ -342,7 +342,7 @@ int main(int argc, char **argv)
         if (srv_pipeline_reload_done(d.pipe, &ok, err)) {
             if (ok) {
                 srv_metrics_count(&d.metrics.reloads_ok, 1);
-                srv_log(SRV_LOG_NOTICE, "reload of %s succeeded; swapping at the next frame",
+                srv_log(SRV_LOG_NOTICE, "reload of %s succeeded; swapping it in (within 100 ms, paused or not)",
                         d.cfg.model);
             } else {
                 srv_metrics_count(&d.metrics.reloads_failed, 1);

@@ -373,7 +373,8 @@ static void *source_main(void *arg)
 
 /* ------------------------------------------------------------------ the synthesis thread */
 
-static void swap_pending(srv_pipeline *p)
+/* 1 when a pending generation was swapped in. */
+static int swap_pending(srv_pipeline *p)
 {
     srv_bundle old = {0};
     pthread_mutex_lock(&p->pub);
@@ -388,7 +389,9 @@ static void swap_pending(srv_pipeline *p)
                 p->cur.gen->name, p->cur.gen->nv);
         srv_bundle_fini(&old); /* frames still held by clients keep their generation alive */
         p->wake(p->wake_ud);
+        return 1;
     }
+    return 0;
 }
 
 /* After each synthesis step (r its result): a run of refused frames (no reference marker was
@@ -446,9 +449,11 @@ static void *synth_main(void *arg)
     int count = p->src->count;
     float *xyz = calloc((size_t)count * 3, sizeof(float));
     uint8_t *valid = calloc((size_t)count, 1);
+    uint64_t t_capture = 0;
     while (xyz && valid && !atomic_load(&p->stop)) {
         pthread_mutex_lock(&p->slot_lock);
-        while (p->written == p->taken && !atomic_load(&p->stop)) {
+        int again = 0; /* a reload swapped in while no frame came: the last markers once more */
+        while (p->written == p->taken && !atomic_load(&p->stop) && !again) {
             struct timespec ts;
             clock_gettime(CLOCK_REALTIME, &ts);
             ts.tv_nsec += 100 * 1000000L;
@@ -457,17 +462,24 @@ static void *synth_main(void *arg)
                 ts.tv_nsec -= 1000000000L;
             }
             pthread_cond_timedwait(&p->slot_cond, &p->slot_lock, &ts);
+            /* a reload swaps in without a frame too (a paused or ended source sends none) */
+            pthread_mutex_unlock(&p->slot_lock);
+            again = swap_pending(p) && p->taken > 0;
+            pthread_mutex_lock(&p->slot_lock);
         }
         if (atomic_load(&p->stop)) {
             pthread_mutex_unlock(&p->slot_lock);
             break;
         }
-        uint64_t skipped = p->written - p->taken - 1;
-        const slot *sl = &p->slots[(p->written - 1) % SLOT_COUNT];
-        memcpy(xyz, sl->xyz, (size_t)count * 3 * sizeof(float));
-        memcpy(valid, sl->valid, (size_t)count);
-        uint64_t t_capture = sl->t_capture_us;
-        p->taken = p->written;
+        uint64_t skipped = 0;
+        if (!again || p->written != p->taken) {
+            skipped = p->written - p->taken - 1;
+            const slot *sl = &p->slots[(p->written - 1) % SLOT_COUNT];
+            memcpy(xyz, sl->xyz, (size_t)count * 3 * sizeof(float));
+            memcpy(valid, sl->valid, (size_t)count);
+            t_capture = sl->t_capture_us;
+            p->taken = p->written;
+        }
         pthread_mutex_unlock(&p->slot_lock);
         if (skipped)
             srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_BUSY], skipped);

@@ -62,7 +62,9 @@ static int filter(srv_daemon *d, struct lws *wsi)
             why = "no Origin header";
         } else if (!strcmp(d->cfg.origin, "same")) {
             int hn = lws_hdr_copy(wsi, host, sizeof host, WSI_TOKEN_HOST);
-            const char *o = !strncmp(buf, "http://", 7) ? buf + 7 : !strncmp(buf, "https://", 8) ? buf + 8 : NULL;
+            /* the daemon speaks plain HTTP: its own pages' origin is http://HOST, and an https://
+             * page is another origin (RFC 6454 Sec. 4: the scheme is part of it) */
+            const char *o = !strncmp(buf, "http://", 7) ? buf + 7 : NULL;
             if (hn <= 0 || !o || strcmp(o, host))
                 why = "Origin does not match Host";
         } else {
