@@ -36,6 +36,16 @@ static int same_secret(const char *a, const char *b)
     return diff == 0;
 }
 
+int srv_request_has_token(struct lws *wsi, const char *token)
+{
+    char buf[1024];
+    const char *t = lws_get_urlarg_by_name(wsi, "token=", buf, sizeof buf);
+    if (t && same_secret(t, token))
+        return 1;
+    return lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_HTTP_AUTHORIZATION) > 0 &&
+           !strncmp(buf, "Bearer ", 7) && same_secret(buf + 7, token);
+}
+
 /* 0 to accept the upgrade, 1 to refuse (logged with the reason). */
 static int filter(srv_daemon *d, struct lws *wsi)
 {
@@ -47,15 +57,8 @@ static int filter(srv_daemon *d, struct lws *wsi)
         why = "shutting down";
     else if (d->nsessions >= d->cfg.max_clients)
         why = "too many clients";
-    if (!why && d->cfg.token[0]) {
-        const char *t = lws_get_urlarg_by_name(wsi, "token=", buf, sizeof buf);
-        int ok = t && same_secret(t, d->cfg.token);
-        if (!ok && lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_HTTP_AUTHORIZATION) > 0 &&
-            !strncmp(buf, "Bearer ", 7))
-            ok = same_secret(buf + 7, d->cfg.token);
-        if (!ok)
-            why = "missing or wrong token";
-    }
+    if (!why && d->cfg.token[0] && !srv_request_has_token(wsi, d->cfg.token))
+        why = "missing or wrong token";
     if (!why && strcmp(d->cfg.origin, "any")) {
         int n = lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_ORIGIN);
         if (n <= 0) {

@@ -18,6 +18,8 @@
  *            unused entry logged as a warning; the hello's markers[].live names cam_<name>), and
  *            keeps the map over a SIGHUP reload; a map leaving one marker unbound (bound false, live
  *            the label looked for); the same map from a config file's `labels =`
+ *   http     HTTP answers: HEAD (the GET's headers, no body), another method 405 with Allow, an
+ *            overlong URI 414
  *   listen   --listen binds exactly the address asked (the kernel's socket table, /proc/net/tcp and
  *            tcp6): 127.0.0.1:PORT and a bare PORT (the default address) an IPv4 loopback socket
  *            and no IPv6 one; [::1]:PORT an IPv6 loopback socket and no IPv4 one
@@ -473,7 +475,19 @@ static void scenario_limits(void)
     ASSERT(no->closed && !no->connected);
     ASSERT(wrong->closed && !wrong->connected);
     ASSERT(!c->connected);
+    /* /healthz and /metrics name the model path and the source spec: the token guards them too */
+    char *body;
+    ASSERT_INT_EQ(harness_get(&H, "/healthz", &body), 401);
+    free(body);
+    ASSERT_INT_EQ(harness_get(&H, "/metrics", &body), 401);
+    free(body);
+    ASSERT_INT_EQ(harness_get(&H, "/metrics?token=wrong", &body), 401);
+    free(body);
+    ASSERT_INT_EQ(harness_get(&H, "/healthz?token=sesame", &body), 200);
+    free(body);
+    snprintf(H.token, sizeof H.token, "sesame"); /* Authorization: Bearer sesame */
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients_rejected_total"), 3);
+    H.token[0] = '\0';
     ASSERT_INT_EQ(harness_stop(&H, SIGINT, 5000), 0);
     lws_context_destroy(ctx);
     wsc_free(no);
@@ -1115,6 +1129,38 @@ static void scenario_invalid(void)
     wsc_free(A);
 }
 
+/* ------------------------------------------------------------------ http */
+
+static void scenario_http(void)
+{
+    start_default(NULL, NULL);
+    char *a;
+    const char head[] = "HEAD /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
+    ASSERT_INT_EQ(harness_raw(&H, head, sizeof head - 1, &a), 200);
+    const char *sep = strstr(a, "\r\n\r\n");
+    ASSERT(sep && sep[4] == '\0'); /* no body */
+    ASSERT(strstr(a, "content-length: ") && atoi(strstr(a, "content-length: ") + 16) > 100);
+    free(a);
+    const char post[] = "POST /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 0\r\n"
+                        "Connection: close\r\n\r\n";
+    ASSERT_INT_EQ(harness_raw(&H, post, sizeof post - 1, &a), 405);
+    ASSERT(strstr(a, "allow: GET, HEAD"));
+    free(a);
+    for (int n = 300; n <= 1000; n += 700) {
+        char req[1200];
+        int len = snprintf(req, sizeof req, "GET /%0*d HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                           "Connection: close\r\n\r\n", n, 7);
+        int st = harness_raw(&H, req, (size_t)len, &a);
+        printf("http: GET of a %d-character URI: %d\n", n + 1, st);
+        ASSERT_INT_EQ(st, 414);
+        free(a);
+    }
+    ASSERT_INT_EQ(harness_get(&H, "/healthz", &a), 200); /* and still serving */
+    free(a);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    printf("http: HEAD answered, other methods 405, long URIs 414\n");
+}
+
 /* ------------------------------------------------------------------ listen */
 
 /* The local addresses (hex, as /proc/net/tcp prints them) of the LISTEN sockets on port in table
@@ -1187,7 +1233,8 @@ int main(int argc, char **argv)
 {
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
-                        "stream|slow|record|limits|origin|idle|config|labels|listen|invalid|horse [MESHSTEER]\n");
+                        "stream|slow|record|limits|origin|idle|config|labels|listen|invalid|http|horse "
+                        "[MESHSTEER]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
@@ -1219,6 +1266,8 @@ int main(int argc, char **argv)
         scenario_labels();
     else if (!strcmp(argv[3], "invalid"))
         scenario_invalid();
+    else if (!strcmp(argv[3], "http"))
+        scenario_http();
     else if (!strcmp(argv[3], "listen"))
         scenario_listen();
     else if (!strcmp(argv[3], "horse"))
