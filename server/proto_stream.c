@@ -366,7 +366,9 @@ static int callback_stream(struct lws *wsi, enum lws_callback_reasons reason, vo
             s->rx_len = 0;
             s->rx_binary = lws_frame_is_binary(wsi);
         }
-        if (s->rx_len + len > (size_t)d->cfg.max_message) {
+        /* what the frame header still announces counts too: a header claiming 2^40 bytes is
+         * closed at its first bytes, not after the client has sent max_message of them */
+        if (s->rx_len + len + lws_remaining_packet_payload(wsi) > (size_t)d->cfg.max_message) {
             srv_metrics_count(&d->metrics.closed_oversize, 1);
             srv_log(SRV_LOG_INFO, "client %llu closed: message larger than %d bytes",
                     (unsigned long long)s->tag, d->cfg.max_message);

@@ -19,7 +19,8 @@
  *            keeps the map over a SIGHUP reload; a map leaving one marker unbound (bound false, live
  *            the label looked for); the same map from a config file's `labels =`
  *   http     HTTP answers: HEAD (the GET's headers, no body), another method 405 with Allow, an
- *            overlong URI 414
+ *            overlong URI 414; a WebSocket frame header claiming 2^40 bytes closes its connection
+ *            at once (not after the client sends them)
  *   listen   --listen binds exactly the address asked (the kernel's socket table, /proc/net/tcp and
  *            tcp6): 127.0.0.1:PORT and a bare PORT (the default address) an IPv4 loopback socket
  *            and no IPv6 one; [::1]:PORT an IPv6 loopback socket and no IPv4 one
@@ -39,6 +40,7 @@
 
 #include <arpa/inet.h>
 #include <cjson/cJSON.h>
+#include <errno.h>
 #include <libwebsockets.h>
 #include <netinet/in.h>
 #include <signal.h>
@@ -46,6 +48,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 static const char *meshsteerd;
@@ -1131,6 +1134,76 @@ static void scenario_invalid(void)
 
 /* ------------------------------------------------------------------ http */
 
+/* A raw /stream connection, upgraded (the 101 read); returns the socket. */
+static int raw_stream(void)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)H.port)};
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT(connect(fd, (struct sockaddr *)&sa, sizeof sa) == 0);
+    char req[512];
+    int n = snprintf(req, sizeof req,
+                     "GET /stream HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nUpgrade: websocket\r\n"
+                     "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                     "Sec-WebSocket-Version: 13\r\n\r\n", H.port);
+    ASSERT(write(fd, req, (size_t)n) == n);
+    char resp[2048];
+    size_t got = 0; /* byte by byte up to the blank line: the frames follow it */
+    while (got < sizeof resp - 1 && (got < 4 || memcmp(resp + got - 4, "\r\n\r\n", 4)))
+        ASSERT(read(fd, resp + got++, 1) == 1);
+    resp[got] = '\0';
+    ASSERT(!strncmp(resp, "HTTP/1.1 101", 12));
+    return fd;
+}
+
+/* Seconds until the daemon closes fd: a close frame (the server's frames are unmasked: opcode,
+ * 7/16/64-bit length, payload) or the end of the stream; at most 5. */
+static double seconds_to_close(int fd)
+{
+    struct timeval tv = {0, 200000};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    uint64_t t0 = wsc_now_us();
+    size_t cap = 1 << 20, len = 0, at = 0; /* at: the next frame's header */
+    unsigned char *b = malloc(cap);
+    ASSERT(b);
+    while (wsc_now_us() - t0 < 5000000) {
+        for (;;) { /* the complete frames so far */
+            size_t avail = len - at;
+            if (avail < 2)
+                break;
+            unsigned l7 = b[at + 1] & 0x7f;
+            size_t h = l7 == 126 ? 4 : l7 == 127 ? 10 : 2;
+            if (avail < h)
+                break;
+            uint64_t n = l7;
+            if (l7 == 126)
+                n = (uint64_t)b[at + 2] << 8 | b[at + 3];
+            else if (l7 == 127)
+                for (int i = (int)(n = 0); i < 8; i++)
+                    n = n << 8 | b[at + 2 + (size_t)i];
+            if ((b[at] & 0x0f) == 8) {
+                free(b);
+                return (double)(wsc_now_us() - t0) * 1e-6;
+            }
+            if (avail < h + n)
+                break;
+            at += h + (size_t)n;
+        }
+        if (len == cap) { /* keep only the unfinished frame */
+            memmove(b, b + at, len - at);
+            len -= at;
+            at = 0;
+        }
+        ssize_t r = read(fd, b + len, cap - len);
+        if (r == 0 || (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK))
+            break;
+        if (r > 0)
+            len += (size_t)r;
+    }
+    free(b);
+    return (double)(wsc_now_us() - t0) * 1e-6;
+}
+
 static void scenario_http(void)
 {
     start_default(NULL, NULL);
@@ -1155,6 +1228,16 @@ static void scenario_http(void)
         ASSERT_INT_EQ(st, 414);
         free(a);
     }
+    /* a text frame whose header claims 2^40 bytes (masked, as a client's must be), then 16 of
+     * them: closed at once (a close frame, 1009), beyond --max-message, not when the rest has
+     * come (never, before) */
+    int fd = raw_stream();
+    unsigned char frame[2 + 8 + 4 + 16] = {0x81, 0x80 | 127, 0, 0, 1, 0, 0, 0, 0, 0, 1, 2, 3, 4};
+    ASSERT(write(fd, frame, sizeof frame) == (ssize_t)sizeof frame);
+    double dt = seconds_to_close(fd);
+    close(fd);
+    printf("http: a frame header claiming 2^40 bytes closed in %.3f s\n", dt);
+    ASSERT(dt < 1.0);
     ASSERT_INT_EQ(harness_get(&H, "/healthz", &a), 200); /* and still serving */
     free(a);
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
