@@ -696,7 +696,9 @@ static void scenario_config(void)
     ASSERT(wsc_run(ctx, 5000, enough, &wc));
     ASSERT(wsc_run(ctx, 5000, enough, &wn));
     ASSERT(!c->connected && !no->connected);
+    snprintf(H.token, sizeof H.token, "sesame"); /* /metrics needs the token too */
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients_rejected_total"), 2);
+    H.token[0] = '\0';
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
     lws_context_destroy(ctx);
     wsc_free(a);
