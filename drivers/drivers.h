@@ -48,12 +48,19 @@ typedef struct drv_frame {
 typedef struct drv_source drv_source;
 
 /* The live controls a source takes (drv_source.controls, set by its open; drv_source_control
- * refuses the others with -ENOTSUP). DRV_CTL_PAUSE covers "pause" with 1 (pause) and 0 (resume). */
+ * refuses the others with -ENOTSUP). Each control is one bit, passed as such end to end (no
+ * names): DRV_CTL_PAUSE takes 1 (pause) and 0 (resume). */
 enum {
-    DRV_CTL_PAUSE = 1 << 0, /* "pause" 1/0 */
-    DRV_CTL_SEEK = 1 << 1,  /* "seek" frame index */
-    DRV_CTL_SPEED = 1 << 2, /* "speed" factor in [DRV_SPEED_MIN, DRV_SPEED_MAX] */
-    DRV_CTL_LOOP = 1 << 3,  /* "loop" 1/0 */
+    DRV_CTL_PAUSE = 1 << 0, /* 1/0 */
+    DRV_CTL_SEEK = 1 << 1,  /* frame index */
+    DRV_CTL_SPEED = 1 << 2, /* factor in [DRV_SPEED_MIN, DRV_SPEED_MAX] */
+    DRV_CTL_LOOP = 1 << 3,  /* 1/0 */
+};
+
+/* What a source is, for its host (drv_source.caps, set by open). */
+enum {
+    DRV_CAP_USB_DEVICE = 1 << 0, /* a live device on USB: it may leave and come back, and its
+                                    host may watch the bus to reopen it at once */
 };
 
 typedef struct drv_source_ops {
@@ -61,8 +68,8 @@ typedef struct drv_source_ops {
     int (*open)(drv_source *s, const char *arg, char *err);
     int (*start)(drv_source *s, char *err);
     int (*read)(drv_source *s, drv_frame *f, int timeout_ms, char *err);
-    /* may be NULL (no controls); called only for keys whose DRV_CTL_* bit is in s->controls */
-    int (*control)(drv_source *s, const char *key, double value, char *err);
+    /* may be NULL (no controls); called only with one DRV_CTL_* bit that is in s->controls */
+    int (*control)(drv_source *s, unsigned ctl, double value, char *err);
     void (*stop)(drv_source *s);
     void (*close)(drv_source *s);
 } drv_source_ops;
@@ -76,6 +83,7 @@ struct drv_source {
     drv_state state;
     int detached;         /* the device was released by drv_source_reopen and none is open yet */
     unsigned controls;    /* DRV_CTL_* bits this source takes (0: none), set by open */
+    unsigned caps;        /* DRV_CAP_* bits, set by open */
 };
 
 /* spec: "scheme:argument", e.g. "replay:walk.c3d?loop=1&speed=0.5&start=10". */
@@ -86,9 +94,8 @@ int drv_source_start(drv_source *s, char *err);
  * marker set; then start it. On failure the handle stays LOST, with no device; try again later. */
 int drv_source_reopen(drv_source *s, const char *spec, char *err);
 int drv_source_read(drv_source *s, drv_frame *f, int timeout_ms, char *err);
-/* Live controls: "pause" (1/0), "seek" (frame), "speed" (factor), "loop" (1/0). -ENOTSUP when the
- * key's DRV_CTL_* bit is not in s->controls. */
-int drv_source_control(drv_source *s, const char *key, double value, char *err);
+/* A live control: ctl is one DRV_CTL_* bit. -ENOTSUP when it is not in s->controls. */
+int drv_source_control(drv_source *s, unsigned ctl, double value, char *err);
 void drv_source_stop(drv_source *s);
 void drv_source_close(drv_source *s); /* NULL is fine */
 
@@ -114,8 +121,8 @@ const drv_source_ops *drv_source_find_ops(const char *scheme);
 /* 0 when speed is in [DRV_SPEED_MIN, DRV_SPEED_MAX]; otherwise -ERANGE and the reason in err
  * ("speed 1e-300 outside [0.001, 100]"). */
 int drv_speed_check(double speed, char *err);
-/* The DRV_CTL_* bit of a control key ("pause", "seek", "speed", "loop"), 0 for others. */
-unsigned drv_control_bit(const char *key);
+/* The name of one DRV_CTL_* bit ("pause", "seek", "speed", "loop"), for messages; "?" otherwise. */
+const char *drv_control_name(unsigned ctl);
 /* "closed", "open", "streaming", "ended", "lost". */
 const char *drv_state_name(drv_state st);
 

@@ -113,7 +113,7 @@ static int replay_open(drv_source *s, const char *arg, char *err)
         *q++ = '\0';
 
     double loop = 0, speed = 1, start = 0;
-    mdl_marker_opts o = {0, MDL_UP_AUTO};
+    mdl_marker_opts o = {0, MDL_UP_AUTO, 0};
     for (char *save = NULL, *kv = q ? strtok_r(q, "&", &save) : NULL; kv;
          kv = strtok_r(NULL, "&", &save)) {
         char *eq = strchr(kv, '=');
@@ -228,12 +228,12 @@ static int replay_read(drv_source *s, drv_frame *f, int timeout_ms, char *err)
     return 0;
 }
 
-static int replay_control(drv_source *s, const char *key, double value, char *err)
+static int replay_control(drv_source *s, unsigned ctl, double value, char *err)
 {
     replay *r = s->impl;
     if (!isfinite(value))
-        return drv__err(err, -EINVAL, "replay: %s: value is not finite", key);
-    if (!strcmp(key, "pause")) {
+        return drv__err(err, -EINVAL, "replay: %s: value is not finite", drv_control_name(ctl));
+    if (ctl == DRV_CTL_PAUSE) {
         if (value != 0 && value != 1)
             return drv__err(err, -EINVAL, "replay: pause must be 0 or 1");
         if (r->paused && value == 0)
@@ -241,7 +241,7 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
         r->paused = value != 0;
         return 0;
     }
-    if (!strcmp(key, "seek")) {
+    if (ctl == DRV_CTL_SEEK) {
         if (value < 0 || value >= r->m->frames || value != floor(value))
             return drv__err(err, -ERANGE, "replay: seek to %g outside the %d frames [0, %d]", value,
                           r->m->frames, r->m->frames - 1);
@@ -249,7 +249,7 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
         reanchor(r, now_us());
         return 0;
     }
-    if (!strcmp(key, "speed")) { /* the range: drv_source_control */
+    if (ctl == DRV_CTL_SPEED) { /* the range: drv_source_control */
         /* the next frame keeps its time if it is sooner than a period at the new speed (no
          * burst when speeding up), else comes a period from now (from speed 0.001, a frame
          * 33 s away, to 1: 1/fps, not 33 s) */
@@ -259,14 +259,14 @@ static int replay_control(drv_source *s, const char *key, double value, char *er
         reanchor(r, due < now ? now : due < soon ? due : soon);
         return 0;
     }
-    if (!strcmp(key, "loop")) {
+    if (ctl == DRV_CTL_LOOP) {
         if (value != 0 && value != 1)
             return drv__err(err, -EINVAL, "replay: loop must be 0 or 1");
         r->loop = value != 0;
         return 0;
     }
-    return drv__err(err, -ENOTSUP, "replay: unknown control '%s' (known: pause, seek, speed, loop)",
-                  key);
+    return drv__err(err, -ENOTSUP, "replay: no control '%s' (known: pause, seek, speed, loop)",
+                  drv_control_name(ctl));
 }
 
 static void replay_stop(drv_source *s)

@@ -117,6 +117,7 @@ int drv_source_reopen(drv_source *s, const char *spec, char *err)
     s->names = t->names;
     s->fps = t->fps;
     s->controls = t->controls;
+    s->caps = t->caps;
     s->detached = 0;
     s->state = DRV_STATE_OPEN;
     free(t);
@@ -159,17 +160,15 @@ int drv_source_read(drv_source *s, drv_frame *f, int timeout_ms, char *err)
     return r;
 }
 
-unsigned drv_control_bit(const char *key)
+const char *drv_control_name(unsigned ctl)
 {
-    static const struct {
-        const char *key;
-        unsigned bit;
-    } keys[] = {{"pause", DRV_CTL_PAUSE}, {"seek", DRV_CTL_SEEK}, {"speed", DRV_CTL_SPEED},
-                {"loop", DRV_CTL_LOOP}};
-    for (size_t i = 0; key && i < sizeof keys / sizeof keys[0]; i++)
-        if (!strcmp(key, keys[i].key))
-            return keys[i].bit;
-    return 0;
+    switch (ctl) {
+    case DRV_CTL_PAUSE: return "pause";
+    case DRV_CTL_SEEK: return "seek";
+    case DRV_CTL_SPEED: return "speed";
+    case DRV_CTL_LOOP: return "loop";
+    }
+    return "?";
 }
 
 int drv_speed_check(double speed, char *err)
@@ -180,23 +179,23 @@ int drv_speed_check(double speed, char *err)
     return 0;
 }
 
-int drv_source_control(drv_source *s, const char *key, double value, char *err)
+int drv_source_control(drv_source *s, unsigned ctl, double value, char *err)
 {
-    if (!s || !key)
+    if (!s)
         return drv__err(err, -EINVAL, "source: NULL");
-    if (!s->ops->control || !(s->controls & drv_control_bit(key)))
-        return drv__err(err, -ENOTSUP, "source %s: no control '%s'%s", s->ops->scheme, key,
-                        s->controls ? "" : " (it takes no controls)");
+    if (!s->ops->control || (ctl & (ctl - 1)) || !(s->controls & ctl))
+        return drv__err(err, -ENOTSUP, "source %s: no control '%s'%s", s->ops->scheme,
+                        drv_control_name(ctl), s->controls ? "" : " (it takes no controls)");
     if (s->detached)
         return drv__err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
-    if (!strcmp(key, "speed")) {
+    if (ctl == DRV_CTL_SPEED) {
         char why[DRV_ERR_LEN];
         if (drv_speed_check(value, why))
             return drv__err(err, -ERANGE, "source %s: %s", s->ops->scheme, why);
     }
-    int r = s->ops->control(s, key, value, err);
+    int r = s->ops->control(s, ctl, value, err);
     /* a seek may revive a replay that had ended */
-    if (r == 0 && s->state == DRV_STATE_ENDED && !strcmp(key, "seek"))
+    if (r == 0 && s->state == DRV_STATE_ENDED && ctl == DRV_CTL_SEEK)
         s->state = DRV_STATE_STREAMING;
     return r;
 }

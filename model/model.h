@@ -89,6 +89,8 @@ enum { MDL_UP_AUTO = 0, MDL_UP_X, MDL_UP_Y, MDL_UP_Z, MDL_UP_NEG_X, MDL_UP_NEG_Y
 typedef struct mdl_marker_opts {
     double scale; /* metres per file unit; 0 = from the file (C3D POINT:UNITS, TRC Units) or a guess (BVH) */
     int up;       /* MDL_UP_* */
+    int rest;     /* 1: one frame, the skeleton's rest pose (every rotation channel zero) instead of
+                     the motion (BVH, ASF/AMC only) */
 } mdl_marker_opts;
 
 /* Reads by extension: .c3d .trc .bvh .csv. `o` may be NULL for defaults. */
@@ -134,9 +136,79 @@ int mdl_rig_read(const char *path, int nv, mdl_rig **out, char *err);
 int mdl_rig_parse(const char *buf, size_t len, const char *name, int nv, mdl_rig **out, char *err);
 void mdl_rig_destroy(mdl_rig *r);
 
-/* ------------------------------------------------------------------ the part-based model (paper 2012) */
+/* ------------------------------------------------------------------ models and their kinds (kind.c) */
 
+/* A model is one mesh (rest pose, faces, topology fingerprint, box, fps), optionally the rig that
+ * binds markers to it, and one or more *kinds* over that mesh (DESIGN.md, "Model kinds"):
+ *   MDL_KIND_STEER     Voegele et al. 2012: driven by markers, trained from an example sequence
+ *   MDL_KIND_HARMONIC  de Aguiar et al. 2007: driven by bone directions / joint rotations
+ *   MDL_KIND_SKIN      Le & Deng 2012 skinning + Zheng 2013 variations: driven by a clock
+ * The first kind is the *primary* one: what mdl_synth_create(m, 0, ...) runs. Everything outside
+ * model/ uses only the kind-neutral calls below; training is kind-specific. */
 typedef struct mdl_model mdl_model;
+
+enum { MDL_KIND_STEER = 1, MDL_KIND_HARMONIC = 2, MDL_KIND_SKIN = 3 };
+#define MDL_MAX_KINDS 4
+
+/* What a kind's synthesis reads (mdl_synth_input), as bits. */
+enum {
+    MDL_INPUT_MARKERS = 1u << 0, /* marker positions + validity, model marker order */
+    MDL_INPUT_JOINTS = 1u << 1,  /* joint rotations (a skeleton source: BVH, ASF/AMC) */
+    MDL_INPUT_CLOCK = 1u << 2,   /* time alone (the idle source): no source frames needed */
+};
+
+/* "steer", "harmonic", "skin", or NULL for an unknown id. */
+const char *mdl_kind_name(int kind);
+/* The id for a name, or 0. */
+int mdl_kind_from_name(const char *name);
+
+int mdl_model_save(const mdl_model *m, const char *path, char *err);
+/* Reads a model file: version 2 (chunks, docs/FORMATS.md) or version 1 (a steering model,
+ * converted on load). */
+int mdl_model_load(const char *path, mdl_model **out, char *err);
+int mdl_model_parse(const uint8_t *buf, size_t len, const char *name, mdl_model **out, char *err);
+void mdl_model_destroy(mdl_model *m);
+
+/* Moves every kind of *src into dst (they must share the mesh: MDL_ETOPOLOGY otherwise, and a kind
+ * dst already has is refused with -EEXIST), then destroys *src and sets it to NULL. On error
+ * nothing changes. So one file holds a steering model and the skin of the same example. */
+int mdl_model_merge(mdl_model *dst, mdl_model **src, char *err);
+
+/* Read-only views into the model (valid while the model lives). */
+typedef struct mdl_model_info {
+    const char *name;
+    int kind;              /* the primary kind, MDL_KIND_* */
+    int nkinds;
+    int kinds[MDL_MAX_KINDS]; /* kinds[0] == kind */
+    unsigned inputs;       /* MDL_INPUT_* bits the primary kind's synthesis reads */
+    int nv, nf;
+    const float *rest;     /* nv x 3, the reference frame */
+    const uint32_t *F;     /* nf x 3 */
+    uint64_t topology;     /* mdl_topology_fingerprint of F */
+    int nmarkers;          /* markers the model is driven by (0: none, e.g. a clock-driven kind) */
+    const mdl_rig_marker *markers;
+    int nclusters;         /* parts for colouring (steer: the disjoint clusters); 0 if none */
+    const int *part;       /* nv: the part of each vertex, or NULL */
+    int ntrain;            /* training frames (0 for a kind built without an example) */
+    const int *train_frames;
+    double fps;            /* of the example mesh sequence, 0 if unknown */
+    float bbox_min[3], bbox_max[3]; /* box of all training frames (or the rest pose) */
+    int virtual_markers;   /* 1 when trained without a marker recording */
+} mdl_model_info;
+
+void mdl_model_get_info(const mdl_model *m, mdl_model_info *info);
+
+/* Writes a human-readable summary (what `meshsteer inspect` prints) into buf. */
+int mdl_model_describe(const mdl_model *m, char *buf, size_t len);
+
+/* The training report (JSON) as a newly allocated string (cJSON_Print; free() it), or NULL. */
+char *mdl_model_report_json(const mdl_model *m);
+
+/* Maps source labels to model markers: map[i] = index into `names` of model marker i, or -1.
+ * Returns how many model markers stay unbound. */
+int mdl_model_bind_markers(const mdl_model *m, const char *const *names, int count, int *map);
+
+/* ------------------------------------------------------------------ the steering model (paper 2012, steer/) */
 
 typedef void (*mdl_progress_fn)(void *ud, const char *stage, double fraction);
 
@@ -173,46 +245,53 @@ void mdl_train_opts_default(mdl_train_opts *o);
 
 /* Trains from mesh frames `frames[0..nframes)` of `seq`. With `markers` NULL the rig vertices'
  * own trajectories are the markers (virtual markers); otherwise the rig's `source` names select
- * the markers and pose adaption (Sec. 4.2) maps the recording onto the mesh frames. */
-int mdl_model_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
+ * the markers and pose adaption (Sec. 4.2) maps the recording onto the mesh frames. The result is
+ * a model whose primary kind is MDL_KIND_STEER. */
+int mdl_steer_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
                     const mdl_markers *markers, const mdl_train_opts *o, mdl_model **out, char *err);
-int mdl_model_save(const mdl_model *m, const char *path, char *err);
-int mdl_model_load(const char *path, mdl_model **out, char *err);
-int mdl_model_parse(const uint8_t *buf, size_t len, const char *name, mdl_model **out, char *err);
-void mdl_model_destroy(mdl_model *m);
 
-/* Read-only views into the model (valid while the model lives). */
-typedef struct mdl_model_info {
-    const char *name;
-    int nv, nf;
-    const float *rest;     /* nv x 3, the reference frame */
-    const uint32_t *F;     /* nf x 3 */
-    uint64_t topology;     /* mdl_topology_fingerprint of F */
-    int nmarkers;
-    const mdl_rig_marker *markers;
-    int nclusters;         /* disjoint parts */
-    const int *part;       /* nv: the part (cluster) of each vertex, for colouring */
-    int ntrain;            /* training frames */
-    const int *train_frames;
-    double fps;            /* of the training mesh sequence, 0 if unknown */
-    float bbox_min[3], bbox_max[3]; /* box of all training frames */
-    int virtual_markers;   /* 1 when trained without a marker recording */
-} mdl_model_info;
+/* ------------------------------------------------------------------ the harmonic model (de Aguiar 2007, harmonic/) */
 
-void mdl_model_get_info(const mdl_model *m, mdl_model_info *info);
+/* A static mesh animated without an example (de Aguiar et al. 2007): rotations at a few
+ * correspondence triangles are interpolated over the mesh as harmonic fields of quaternion
+ * components (Sec. 4.1 eq. 1-2) and the rotated triangles glued back by a Poisson solve (eq. 3-4).
+ * Driven by markers (MDL_INPUT_MARKERS): the template is a skeleton whose bones are pairs of
+ * markers (BVH / ASF/AMC joint positions, or any marker source); a bone's rotation is the rotation
+ * of its rest direction onto its current one, its twist from a third marker where the rig names one
+ * (docs/MODEL.md says what is lost without it). */
+typedef struct mdl_harmonic_opts {
+    int auto_k;           /* > 0: K correspondences by farthest-point sampling, each its own group,
+                             no template (a model measured on its own sequence: `auto:K`) */
+    int per_bone;         /* with a rig: automatic correspondence triangles per bone (Sec. 4.2) */
+    const int *given_off; /* with a rig, may be NULL: per bone (rig limb) user triangles, */
+    const int *given_idx; /*   given_idx[given_off[b] .. given_off[b+1]), completed by cross-section */
+    const char *name;     /* model name */
+} mdl_harmonic_opts;
 
-/* Writes a human-readable summary (what `meshsteer inspect` prints) into buf. */
-int mdl_model_describe(const mdl_model *m, char *buf, size_t len);
+void mdl_harmonic_opts_default(mdl_harmonic_opts *o);
 
-/* The training report (JSON) as a newly allocated string (cJSON_Print; free() it), or NULL. */
-char *mdl_model_report_json(const mdl_model *m);
+/* Builds a harmonic model over `target`. With o->auto_k > 0, rig and template_rest may be NULL.
+ * Otherwise the rig's limbs are the template's bones ([from, to] or [from, to, twist] marker
+ * names), reference[0] its root, and template_rest (frame 0) holds the rig's `source` labels in the
+ * template's rest pose; it is aligned to the target by scale (height) and translation (feet on the
+ * target's floor, centres over each other), both facing the same way. The model's rig is a copy of
+ * `rig` whose vertices are the target vertices nearest the aligned joints. */
+int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_markers *template_rest,
+                       const mdl_harmonic_opts *o, mdl_model **out, char *err);
 
-/* Maps source labels to model markers: map[i] = index into `names` of model marker i, or -1. */
-int mdl_model_bind_markers(const mdl_model *m, const char *const *names, int count, int *map);
-
-/* ------------------------------------------------------------------ synthesis (Sec. 5) */
+/* ------------------------------------------------------------------ synthesis, any kind */
 
 typedef struct mdl_synth mdl_synth;
+
+/* One frame's input. Each kind reads the parts its info.inputs names and ignores the rest. */
+typedef struct mdl_synth_input {
+    const float *markers;     /* MDL_INPUT_MARKERS: nmarkers x 3 in model marker order (metres) */
+    const uint8_t *valid;     /* nmarkers, 1 = present; NULL = all valid */
+    int njoints;              /* MDL_INPUT_JOINTS: joints in the kind's joint order */
+    const float *joint_rot;   /* njoints x 4 unit quaternions (w, x, y, z), world frame */
+    const uint8_t *joint_valid; /* njoints; NULL = all valid */
+    double t;                 /* MDL_INPUT_CLOCK: seconds since the synthesis started */
+} mdl_synth_input;
 
 typedef struct mdl_synth_info {
     int markers_missing;  /* markers invalid in this frame */
@@ -221,13 +300,18 @@ typedef struct mdl_synth_info {
 } mdl_synth_info;
 
 /* All memory for synthesis is allocated here; mdl_synth_frame allocates nothing. One mdl_synth per
- * thread; the model may be shared read-only between several. */
-int mdl_synth_create(const mdl_model *m, mdl_synth **out, char *err);
+ * thread; the model may be shared read-only between several. `kind` 0 is the primary kind; another
+ * MDL_KIND_* picks that kind of the model (-ENOENT if it has none). */
+int mdl_synth_create(const mdl_model *m, int kind, mdl_synth **out, char *err);
 void mdl_synth_destroy(mdl_synth *s);
-/* markers: nmarkers x 3 in model marker order (metres); valid may be NULL (all valid).
- * V: nv x 3 output. info may be NULL. Returns 0, or -EAGAIN while no reference was ever seen. */
-int mdl_synth_frame(mdl_synth *s, const float *markers, const uint8_t *valid, float *V,
-                    mdl_synth_info *info);
+/* The MDL_INPUT_* bits this synthesis reads. */
+unsigned mdl_synth_inputs(const mdl_synth *s);
+/* V: nv x 3 output. info may be NULL. Returns 0, or -EAGAIN while the input does not yet allow a
+ * frame (e.g. no reference was ever seen). */
+int mdl_synth_frame(mdl_synth *s, const mdl_synth_input *in, float *V, mdl_synth_info *info);
+/* The common case of a marker-driven kind: in = {markers, valid}. */
+int mdl_synth_markers(mdl_synth *s, const float *markers, const uint8_t *valid, float *V,
+                      mdl_synth_info *info);
 /* Forgets held markers and motion history (seek, new performer). */
 void mdl_synth_reset(mdl_synth *s);
 
@@ -261,15 +345,78 @@ typedef struct mdl_eval_result {
     int nan_count;           /* non-finite output coordinates */
     int markers_dropped;
     int frames_skipped;      /* frames the model could not synthesise (no reference yet) */
+    double rmse;             /* root mean square vertex error, mesh units (0: not computed) */
+    double rmse_over_diag;   /* rmse over the rest box diagonal */
     double *synth_us;        /* per frame synthesis time, allocated (frames) */
     double *frame_err;       /* per frame mean error, allocated (frames) */
     double *baseline_frame_err;
+    const char *baseline_name; /* the baseline's JSON key stem, e.g. "baseline_nearest" (the
+                                  harmonic kind), or NULL for the nearest-frame "baseline_nn" */
 } mdl_eval_result;
 
-/* The mesh must have the model's topology (MDL_ETOPOLOGY otherwise). */
+/* The mesh must have the model's topology (MDL_ETOPOLOGY otherwise). Runs the primary kind's own
+ * evaluation (-ENOTSUP for a kind that has none). */
 int mdl_eval_run(const mdl_model *m, const mdl_meshseq *seq, const int *frames, int n,
                  const mdl_eval_opts *o, mdl_eval_result *r, char *err);
 void mdl_eval_result_fini(mdl_eval_result *r);
+
+/* ------------------------------------------------------------------ the skin (Le & Deng 2012, skin/) */
+
+/* A parallel-for supplied by the caller (model/ creates no threads): run body(ctx, i, worker) for
+ * every i in [0, n), each exactly once, with worker in [0, workers) and no two concurrent calls
+ * sharing a worker index; return when all are done. */
+typedef void (*mdl_parallel_body)(void *ctx, int i, int worker);
+typedef void (*mdl_parallel_fn)(void *ud, int n, mdl_parallel_body body, void *ctx);
+
+typedef struct mdl_skin_opts {
+    int bones;             /* N, the number of bones (rigid transforms per frame) */
+    int max_influences;    /* K, non-zero weights per vertex at most */
+    int iterations;        /* alternations at most (weights, then transforms) */
+    double tolerance;      /* stop when the RMSE improved by less than this fraction ... */
+    int patience;          /* ... this many times in a row */
+    int init_iterations;   /* label/transform iterations after each split of the initialisation */
+    int transform_sweeps;  /* per-bone Procrustes passes per alternation */
+    double smooth;         /* weight smoothness over the mesh edges (0: off), relative: the
+                              penalty is smooth * frames * diag^2 * |w_i - mean of neighbours|^2 */
+    uint64_t seed;         /* recorded; the fit makes no random choices (it is deterministic) */
+    const float *rest;     /* nv x 3 rest pose, or NULL for the first fitted frame */
+    const char *name;      /* model name */
+    int workers;           /* the parallel-for's worker count (1 without one) */
+    mdl_parallel_fn parallel; /* NULL: serial */
+    void *parallel_ud;
+    mdl_progress_fn progress;
+    void *progress_ud;
+} mdl_skin_opts;
+
+/* bones 20, max_influences 4, iterations 100, tolerance 1e-3, patience 3, init_iterations 5,
+ * transform_sweeps 2, smooth 0, seed 1, serial. */
+void mdl_skin_opts_default(mdl_skin_opts *o);
+
+typedef struct mdl_skin_stats {
+    int bones, max_influences, frames, vertices, iterations;
+    double rmse;           /* root mean square vertex error over the fitted frames, mesh units */
+    double rmse_over_diag; /* over the rest mesh's bounding-box diagonal */
+    double max_err;        /* the largest vertex error, mesh units */
+    double diag;           /* the rest box diagonal */
+    double seconds;        /* wall time of the fit */
+} mdl_skin_stats;
+
+/* Fits a skin to frames[0..n) of seq: a model whose primary kind is MDL_KIND_SKIN, over the rest
+ * pose (o->rest or the first fitted frame) and seq's faces. Its synthesis (MDL_INPUT_CLOCK) plays
+ * the fitted bone animation, looping at seq->fps (30 when unknown); its eval fits the bone
+ * transforms of other frames with the weights fixed. -EDOM when the mesh cannot support
+ * o->bones bones (fewer vertices than 3 per bone). */
+int mdl_skin_fit(const mdl_meshseq *seq, const int *frames, int n, const mdl_skin_opts *o,
+                 mdl_model **out, char *err);
+/* The fit's figures; -ENOENT when m holds no skin. */
+int mdl_skin_get_stats(const mdl_model *m, mdl_skin_stats *st);
+/* The skin's weights as K slots per vertex (bone index, weight; unused slots weight 0) and its
+ * bone transforms of fitted frame f (nb x 12: R row-major, then t); pointers valid while m lives. */
+int mdl_skin_get(const mdl_model *m, int *nb, int *K, int *nframes, const int **bone,
+                 const double **w, const double **T);
+/* glTF 2.0 binary (.glb, gltf.c): the rest mesh, one joint per bone, JOINTS_0/WEIGHTS_0 and one
+ * animation (translation + rotation per bone per fitted frame). Needs K <= 4. */
+int mdl_skin_write_gltf(const mdl_model *m, const char *path, char *err);
 
 /* A Python-style slice (frames.c) "start:stop[:step]" (also "N" and ":"), resolved against `count`.
  * Allocates *idx. */

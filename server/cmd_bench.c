@@ -118,7 +118,7 @@ int cmd_bench(int argc, char **argv)
         mdl_model_destroy(model);
         model = NULL;
         double t0 = now_s();
-        if (mdl_model_train(seq, ti, nt, rig, NULL, &o, &model, err)) {
+        if (mdl_steer_train(seq, ti, nt, rig, NULL, &o, &model, err)) {
             status = cli_fail(cmd, CLI_EXIT_USAGE, "%s", err);
             goto out;
         }
@@ -128,7 +128,7 @@ int cmd_bench(int argc, char **argv)
         for (int j = 0; j < nm; j++)
             memcpy(mk + ((size_t)i * nm + j) * 3,
                    seq->V + ((size_t)ei[i] * nv + rig->markers[j].vertex) * 3, 3 * sizeof(float));
-    if (mdl_synth_create(model, &s, err)) {
+    if (mdl_synth_create(model, 0, &s, err)) {
         status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
         goto out;
     }
@@ -141,7 +141,7 @@ int cmd_bench(int argc, char **argv)
     for (int k = 0; k < nsynth; k++) {
         const float *m = mk + (size_t)(k % ne) * nm * 3;
         double t0 = now_s();
-        mdl_synth_frame(s, m, NULL, V, NULL);
+        mdl_synth_markers(s, m, NULL, V, NULL);
         st[k] = 1e6 * (now_s() - t0);
         sink += V[0];
         /* baseline: best-fitting training frame by rigid marker alignment, then copy its mesh */

@@ -89,7 +89,7 @@ int cmd_demo(int argc, char **argv)
     o.name = "example-creature";
     o.progress = cli_progress;
     o.progress_ud = (void *)"demo";
-    if (mdl_model_train(&both, ti, frames, rig, NULL, &o, &model, err)) {
+    if (mdl_steer_train(&both, ti, frames, rig, NULL, &o, &model, err)) {
         cli_progress_done();
         cli_fail(cmd, status, "%s", err);
         goto out;
@@ -109,9 +109,9 @@ int cmd_demo(int argc, char **argv)
     {
         mdl_synth *s = NULL;
         float *out = malloc(sizeof(float) * fsz * frames);
-        int ok = out && mdl_synth_create(model, &s, err) == 0;
+        int ok = out && mdl_synth_create(model, 0, &s, err) == 0;
         for (int i = 0; ok && i < frames; i++)
-            ok = mdl_synth_frame(s, rec->P + (size_t)i * rec->count * 3, rec->valid + (size_t)i * rec->count,
+            ok = mdl_synth_markers(s, rec->P + (size_t)i * rec->count * 3, rec->valid + (size_t)i * rec->count,
                                  out + fsz * i, NULL) == 0;
         snprintf(path, sizeof path, "%s/trot.pc2", outdir);
         if (ok)

@@ -87,8 +87,19 @@ int cmd_eval(int argc, char **argv)
     cJSON_AddNumberToObject(o, "p95_err", r.p95_err);
     cJSON_AddNumberToObject(o, "max_err", r.max_err);
     cJSON_AddNumberToObject(o, "marker_err", r.marker_err);
+    if (r.rmse > 0) { /* kinds that compute it (skin): root mean square error, mesh units */
+        cJSON_AddNumberToObject(o, "rmse", r.rmse);
+        cJSON_AddNumberToObject(o, "rmse_over_diag", r.rmse_over_diag);
+    }
     cJSON_AddNumberToObject(o, "baseline_nn_mean_err", r.baseline_nn_mean_err);
     cJSON_AddNumberToObject(o, "baseline_nn_p95_err", r.baseline_nn_p95_err);
+    if (r.baseline_name) {
+        char key[96];
+        snprintf(key, sizeof key, "%s_mean_err", r.baseline_name);
+        cJSON_AddNumberToObject(o, key, r.baseline_nn_mean_err);
+        snprintf(key, sizeof key, "%s_p95_err", r.baseline_name);
+        cJSON_AddNumberToObject(o, key, r.baseline_nn_p95_err);
+    }
     cJSON_AddNumberToObject(o, "ratio_to_baseline",
                             r.baseline_nn_mean_err > 0 ? r.mean_err / r.baseline_nn_mean_err : 0);
     cJSON_AddNumberToObject(o, "synth_us_median", med);

@@ -146,7 +146,7 @@ int cmd_synth(int argc, char **argv)
 {
     const char *cmd = "synth", *modelp = NULL, *mk = NULL, *outp = NULL, *objdir = NULL,
                *frames = NULL;
-    mdl_marker_opts mo = {0, MDL_UP_AUTO};
+    mdl_marker_opts mo = {0, MDL_UP_AUTO, 0};
     enum { O_MODEL = 256, O_MARKERS, O_OBJDIR, O_FRAMES, O_MSCALE, O_MUP, O_JSON, O_LABELS };
     int json = 0;
     static const struct option lo[] = {
@@ -231,7 +231,7 @@ int cmd_synth(int argc, char **argv)
                  "'Driving a model with other labels')", mk, info.nmarkers, markers->count);
         goto out;
     }
-    if (mdl_synth_create(model, &s, err)) {
+    if (mdl_synth_create(model, 0, &s, err)) {
         status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
         goto out;
     }
@@ -252,7 +252,7 @@ int cmd_synth(int argc, char **argv)
         mdl_synth_info si;
         struct timespec t0, t1;
         clock_gettime(CLOCK_MONOTONIC, &t0);
-        int r = mdl_synth_frame(s, P, valid, out + (size_t)i * info.nv * 3, &si);
+        int r = mdl_synth_markers(s, P, valid, out + (size_t)i * info.nv * 3, &si);
         clock_gettime(CLOCK_MONOTONIC, &t1);
         times[i] = 1e6 * (double)(t1.tv_sec - t0.tv_sec) + 1e-3 * (double)(t1.tv_nsec - t0.tv_nsec);
         if (r == -EAGAIN) { /* no reference edge yet: fill with the rest pose later */

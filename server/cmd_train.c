@@ -7,9 +7,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 static const char usage_text[] =
     "usage: meshsteer train --mesh PATH --rig RIG.json -o MODEL [options]\n"
+    "       meshsteer train --kind harmonic --mesh TARGET [--rig RIG.json --template FILE]\n"
+    "                       [--correspondences auto|auto:K] -o MODEL\n"
     "\n"
     "Learns the part-based pose and shape model (Voegele et al. 2012) from an example animation.\n"
     "\n"
@@ -41,18 +44,111 @@ static const char usage_text[] =
     "  --train-noise MM   with virtual markers: marker noise (mm) the regressions learn to\n"
     "                     ignore from 4 noisy copies of each frame (default 0 = off)\n"
     "  --align-samples N  shared vertices per part used by alignment and shape steps (default\n"
-    "                     16; 0 = all)\n" CLI_MARKER_OPTS_HELP;
+    "                     16; 0 = all)\n"
+    "  --kind KIND        steer (default: the above) or harmonic (de Aguiar et al. 2007: a static\n"
+    "                     mesh, the first frame of --mesh, animated by a template skeleton)\n"
+    "harmonic options:\n"
+    "  --rig RIG.json     the template's bones: limbs [from, to] or [from, to, twist] of marker\n"
+    "                     names, reference[0] the root (docs/MODEL.md); not needed with auto:K\n"
+    "  --template FILE    the template's rest pose: a BVH's rest pose (all rotations zero), or\n"
+    "                     frame 0 of another marker file\n"
+    "  --correspondences auto|auto:K\n"
+    "                     auto (default with a rig): --per-bone triangles along every bone;\n"
+    "                     auto:K: K triangles spread over the mesh, no template (for eval)\n"
+    "  --per-bone N       automatic correspondence triangles per bone (default 8)\n" CLI_MARKER_OPTS_HELP;
+
+static int write_report(const char *cmd, const mdl_model *model, const char *report)
+{
+    char *js = mdl_model_report_json(model);
+    FILE *f = js ? fopen(report, "w") : NULL;
+    if (!f || fputs(js, f) < 0 || fclose(f) != 0) {
+        free(js);
+        return cli_fail(cmd, CLI_EXIT_FAIL, "%s: cannot write the report", report);
+    }
+    free(js);
+    return CLI_EXIT_OK;
+}
+
+/* --kind harmonic: de Aguiar et al. 2007, built from the first frame of --mesh (model.h) */
+static int train_harmonic(const char *mesh, const char *rest, const char *rigp, const char *tmpl,
+                          const char *corr, int per_bone, const mdl_marker_opts *mo,
+                          const char *outp, const char *report, const char *name)
+{
+    const char *cmd = "train";
+    if (!mesh || !outp)
+        return cli_usage_error(cmd, "--kind harmonic needs --mesh and -o (see --help)");
+    mdl_harmonic_opts o;
+    mdl_harmonic_opts_default(&o);
+    o.per_bone = per_bone;
+    o.name = name;
+    if (corr && strncmp(corr, "auto:", 5) == 0) {
+        if (cli_parse_int(cmd, "--correspondences auto:K", corr + 5, &o.auto_k) || o.auto_k < 1)
+            return cli_usage_error(cmd, "--correspondences: '%s': K must be a positive integer", corr);
+    } else if (corr && strcmp(corr, "auto") != 0) {
+        return cli_usage_error(cmd, "--correspondences: '%s': expected auto or auto:K (a file of "
+                               "hand-placed triangles is not supported yet)", corr);
+    }
+    if (o.auto_k == 0 && (!rigp || !tmpl))
+        return cli_usage_error(cmd, "--kind harmonic needs --rig and --template, or "
+                               "--correspondences auto:K");
+    if (per_bone < 1 || per_bone > 10000)
+        return cli_usage_error(cmd, "--per-bone must be within 1..10000");
+    char err[MDL_ERR_LEN] = "";
+    int status = CLI_EXIT_USAGE;
+    mdl_meshseq *seq = NULL;
+    mdl_rig *rig = NULL;
+    mdl_markers *tm = NULL;
+    mdl_model *model = NULL;
+    if (mdl_meshseq_read(mesh, rest, &seq, err) || (rigp && mdl_rig_read(rigp, 0, &rig, err))) {
+        cli_fail(cmd, status, "%s", err);
+        goto out;
+    }
+    if (tmpl && o.auto_k == 0) {
+        mdl_marker_opts to = *mo;
+        const char *dot = strrchr(tmpl, '.');
+        to.rest = dot && (strcasecmp(dot, ".bvh") == 0);
+        if (mdl_markers_read(tmpl, &to, &tm, err)) {
+            cli_fail(cmd, status, "%s", err);
+            goto out;
+        }
+    }
+    mdl_mesh target = {.nv = seq->nv, .nf = seq->nf, .V = seq->V, .F = seq->F};
+    int r = mdl_harmonic_build(&target, o.auto_k ? NULL : rig, tm, &o, &model, err);
+    if (r) {
+        status = cli_fail(cmd, r == -ENOMEM || r == MDL_ENUMERIC ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);
+        goto out;
+    }
+    if (mdl_model_save(model, outp, err)) {
+        status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
+        goto out;
+    }
+    if (report && (status = write_report(cmd, model, report)) != CLI_EXIT_OK)
+        goto out;
+    mdl_model_info info;
+    mdl_model_get_info(model, &info);
+    fprintf(stderr, "meshsteer train: %s: harmonic model of %d vertices, %d markers\n", outp,
+            info.nv, info.nmarkers);
+    status = CLI_EXIT_OK;
+out:
+    mdl_model_destroy(model);
+    mdl_markers_destroy(tm);
+    mdl_rig_destroy(rig);
+    mdl_meshseq_destroy(seq);
+    return status;
+}
 
 int cmd_train(int argc, char **argv)
 {
     const char *cmd = "train", *mesh = NULL, *rest = NULL, *rigp = NULL, *mk = NULL,
-               *frames = NULL, *outp = NULL, *report = NULL, *name = NULL;
+               *frames = NULL, *outp = NULL, *report = NULL, *name = NULL, *kind = "steer",
+               *tmpl = NULL, *corr = NULL;
+    int per_bone = 8;
     mdl_train_opts o;
     mdl_train_opts_default(&o);
-    mdl_marker_opts mo = {0, MDL_UP_AUTO};
+    mdl_marker_opts mo = {0, MDL_UP_AUTO, 0};
     enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
            O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP, O_LINEAR,
-           O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF, O_TNOISE };
+           O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF, O_TNOISE, O_KIND, O_TEMPLATE, O_CORR, O_PERBONE };
     double tnoise_mm = 0;
     static const struct option lo[] = {
         {"mesh", 1, 0, 'm'},          {"rest", 1, 0, O_REST},         {"rig", 1, 0, O_RIG},
@@ -64,7 +160,8 @@ int cmd_train(int argc, char **argv)
         {"marker-scale", 1, 0, O_MSCALE}, {"marker-up", 1, 0, O_MUP}, {"help", 0, 0, 'h'},
         {"linear", 0, 0, O_LINEAR},   {"marker-weight", 1, 0, O_MWEIGHT}, {"relax", 1, 0, O_RELAX},
         {"align-samples", 1, 0, O_SAMPLES}, {"rbf", 0, 0, O_RBF}, {"train-noise", 1, 0, O_TNOISE},
-        {0, 0, 0, 0}};
+        {"kind", 1, 0, O_KIND}, {"template", 1, 0, O_TEMPLATE}, {"correspondences", 1, 0, O_CORR},
+        {"per-bone", 1, 0, O_PERBONE}, {0, 0, 0, 0}};
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "m:o:h", lo, NULL)) != -1) {
@@ -98,12 +195,25 @@ int cmd_train(int argc, char **argv)
             if (cli_marker_option(cmd, c == O_MSCALE ? "marker-scale" : "marker-up", optarg, &mo))
                 return CLI_EXIT_USAGE;
             break;
+        case O_KIND: kind = optarg; break;
+        case O_TEMPLATE: tmpl = optarg; break;
+        case O_CORR: corr = optarg; break;
+        case O_PERBONE: if (cli_parse_int(cmd, "--per-bone", optarg, &per_bone)) return CLI_EXIT_USAGE; break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
         default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
         }
     }
     if (optind < argc)
         return cli_usage_error(cmd, "unexpected argument '%s'", argv[optind]);
+    if (strcmp(kind, "harmonic") == 0) {
+        if (!name) {
+            const char *slash = outp ? strrchr(outp, '/') : NULL;
+            name = slash ? slash + 1 : outp;
+        }
+        return train_harmonic(mesh, rest, rigp, tmpl, corr, per_bone, &mo, outp, report, name);
+    }
+    if (strcmp(kind, "steer") != 0)
+        return cli_usage_error(cmd, "--kind: '%s' is not steer or harmonic", kind);
     if (!mesh || !rigp || !outp)
         return cli_usage_error(cmd, "--mesh, --rig and -o are required (see --help)");
     if (o.clusters < 0 || o.max_clusters < 1 || o.max_clusters > 1000 || !(o.rigid_tol > 0) ||
@@ -147,7 +257,7 @@ int cmd_train(int argc, char **argv)
     o.name = name;
     o.progress = cli_progress;
     o.progress_ud = (void *)"train";
-    int r = mdl_model_train(seq, idx, n, rig, markers, &o, &model, err);
+    int r = mdl_steer_train(seq, idx, n, rig, markers, &o, &model, err);
     cli_progress_done();
     if (r) {
         cli_fail(cmd, r == -ENOMEM || r == MDL_ENUMERIC ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);

@@ -20,6 +20,22 @@ static const struct {
     {"ping", SRV_CTL_PING, NULL},
 };
 
+const int srv_source_controls[SRV_SOURCE_CONTROLS] = {SRV_CTL_PAUSE, SRV_CTL_RESUME, SRV_CTL_SEEK,
+                                                      SRV_CTL_SPEED};
+
+void srv_controls_text(unsigned bits, char *buf, size_t len)
+{
+    size_t at = 0;
+    if (len)
+        buf[0] = '\0';
+    for (int i = 0; i < SRV_SOURCE_CONTROLS && at < len; i++)
+        if (bits & SRV_CTL_BIT(srv_source_controls[i])) {
+            int w = snprintf(buf + at, len - at, "%s%s", at ? ", " : "",
+                             srv_control_name(srv_source_controls[i]));
+            at += w > 0 ? (size_t)w : 0;
+        }
+}
+
 const char *srv_control_name(int kind)
 {
     for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; i++)

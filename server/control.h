@@ -56,6 +56,12 @@ int srv__utf8_valid(const char *s, size_t n);
 /* The static name of a kind ("pause", ...), or NULL. */
 const char *srv_control_name(int kind);
 
+/* The source controls in the order the hello lists them (pause, resume, seek, speed). */
+#define SRV_SOURCE_CONTROLS 4
+extern const int srv_source_controls[SRV_SOURCE_CONTROLS];
+/* The names of the SRV_CTL_BIT()s in `bits`, in that order, comma separated ("" for none). */
+void srv_controls_text(unsigned bits, char *buf, size_t len);
+
 /* Reply texts into buf (SRV_REPLY_LEN); return the length. */
 size_t srv_reply_ack(char *buf, const srv_control *c);
 size_t srv_reply_pong(char *buf, const srv_control *c, uint64_t server_us);

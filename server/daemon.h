@@ -36,8 +36,10 @@ struct srv_session {
     srv_gen *gen;     /* the generation this client was greeted with (referenced) */
     int stage;        /* 0 hello due, 1 topology due, 2 streaming */
     int encoding;
-    uint64_t last_seq;
-    uint64_t frames, skipped;
+    uint64_t last_seq;      /* the newest frame written to this client */
+    uint64_t accounted_seq; /* frames up to this one were counted as written or skipped */
+    uint64_t frames, skipped; /* frames written; frames superseded before this client got them */
+    uint32_t skip_pending;  /* skipped since the last write: the next frame header says so */
     unsigned char *rx; /* max_message bytes */
     size_t rx_len;
     int rx_binary;
@@ -57,5 +59,10 @@ int srv_request_has_token(struct lws *wsi, const char *token);
 
 /* Asks every session to be written to (new frame, results, shutdown). lws thread only. */
 void srv_stream_kick_all(srv_daemon *d);
+
+/* Appends per-client lines to the Prometheus text (meshsteer_client_frames_total and
+ * meshsteer_client_skipped_frames_total, labelled by the session's tag); with buf NULL returns the
+ * length it needs. lws thread only. */
+size_t srv_stream_render_clients(const srv_daemon *d, char *buf, size_t cap);
 
 #endif

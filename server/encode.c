@@ -75,6 +75,11 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
     cJSON_AddNumberToObject(h, "generation", g->id);
     cJSON *m = cJSON_AddObjectToObject(h, "model");
     add_text(m, "name", g->name);
+    cJSON_AddStringToObject(m, "kind", mdl_kind_name(info->kind) ? mdl_kind_name(info->kind) : "");
+    cJSON *kinds = cJSON_AddArrayToObject(m, "kinds");
+    for (int i = 0; i < info->nkinds; i++)
+        cJSON_AddItemToArray(kinds, cJSON_CreateString(mdl_kind_name(info->kinds[i]) ? mdl_kind_name(info->kinds[i]) : ""));
+    cJSON_AddBoolToObject(m, "idle", src && src->idle);
     cJSON_AddNumberToObject(m, "vertices", g->nv);
     cJSON_AddNumberToObject(m, "faces", g->nf);
     cJSON_AddNumberToObject(m, "parts", g->nparts);
@@ -95,7 +100,7 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
         const char *own = info->markers[i].source[0] ? info->markers[i].source : info->markers[i].name;
         add_text(o, "source", own);
         add_text(o, "live", src && src->lookup && src->lookup[i] ? src->lookup[i] : own);
-        cJSON_AddBoolToObject(o, "bound", g->map && g->map[i] >= 0);
+        cJSON_AddBoolToObject(o, "bound", src && src->bound && src->bound[i]);
         cJSON_AddItemToArray(mk, o);
     }
     cJSON *s = cJSON_AddObjectToObject(h, "source");
@@ -104,10 +109,9 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
     cJSON_AddNumberToObject(s, "fps", src ? src->fps : 0);
     cJSON_AddNumberToObject(s, "markers", src ? src->count : 0);
     cJSON *ctl = cJSON_AddArrayToObject(s, "controls");
-    static const int offered[] = {SRV_CTL_PAUSE, SRV_CTL_RESUME, SRV_CTL_SEEK, SRV_CTL_SPEED};
-    for (size_t i = 0; src && i < sizeof offered / sizeof offered[0]; i++)
-        if (src->controls & SRV_CTL_BIT(offered[i]))
-            cJSON_AddItemToArray(ctl, cJSON_CreateString(srv_control_name(offered[i])));
+    for (int i = 0; src && i < SRV_SOURCE_CONTROLS; i++)
+        if (src->controls & SRV_CTL_BIT(srv_source_controls[i]))
+            cJSON_AddItemToArray(ctl, cJSON_CreateString(srv_control_name(srv_source_controls[i])));
     cJSON *e = cJSON_AddArrayToObject(h, "encodings");
     for (int i = 0; i < SRV_ENC_COUNT; i++)
         cJSON_AddItemToArray(e, cJSON_CreateString(enc_names[i]));
@@ -116,8 +120,8 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
     return txt;
 }
 
-int srv_gen_create(const mdl_model_info *info, const int *map,
-                   const srv_source_desc *src, uint32_t id, srv_gen **out, char *err)
+int srv_gen_create(const mdl_model_info *info, const srv_source_desc *src, uint32_t id,
+                   srv_gen **out, char *err)
 {
     *out = NULL;
     if (info->nv <= 0 || info->nf < 0 || info->nmarkers < 0 || !info->rest ||
@@ -136,6 +140,7 @@ int srv_gen_create(const mdl_model_info *info, const int *map,
     g->nm = info->nmarkers;
     g->topology = info->topology;
     snprintf(g->name, sizeof g->name, "%s", info->name ? info->name : "");
+    snprintf(g->kind, sizeof g->kind, "%s", mdl_kind_name(info->kind) ? mdl_kind_name(info->kind) : "");
     /* the parts: ids must lie in [0, nparts) */
     g->nparts = info->part ? (info->nclusters > 0 ? info->nclusters : 1) : 1;
     if (info->part)
@@ -176,16 +181,9 @@ int srv_gen_create(const mdl_model_info *info, const int *map,
     }
     total += LWS_PRE + tsz;
     g->storage = malloc(total);
-    g->map = malloc(sizeof(int) * (size_t)(g->nm ? g->nm : 1));
-    char *hello = NULL;
-    if (g->storage && g->map) {
-        for (int i = 0; i < g->nm; i++)
-            g->map[i] = map ? map[i] : -1;
-        hello = build_hello(info, g, src);
-    }
+    char *hello = g->storage ? build_hello(info, g, src) : NULL;
     if (!hello) {
         free(g->storage);
-        free(g->map);
         free(g);
         return srv_err(err, -ENOMEM, "out of memory for %zu bytes of frame buffers", total);
     }
@@ -194,7 +192,6 @@ int srv_gen_create(const mdl_model_info *info, const int *map,
     if (!g->hello) {
         cJSON_free(hello);
         free(g->storage);
-        free(g->map);
         free(g);
         return srv_err(err, -ENOMEM, "out of memory");
     }
@@ -258,7 +255,6 @@ void srv_gen_unref(srv_gen *g)
         return;
     free(g->hello ? g->hello - LWS_PRE : NULL);
     free(g->storage);
-    free(g->map);
     free(g);
 }
 

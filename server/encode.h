@@ -35,6 +35,7 @@ enum {
     SRV_FLAG_REFERENCE_LOST = 1, /* the reference edge was missing; the last body frame was kept */
     SRV_FLAG_CLAMPED = 2,        /* int16: some vertices lay outside the box and were clamped */
     SRV_FLAG_HELD = 4,           /* some markers were missing and replaced by their last position */
+    SRV_FLAG_IDLE = 8,           /* no one is tracked: the model's idle animation made this frame */
 };
 
 /* topology message ("MSTO"), little-endian */
@@ -77,16 +78,19 @@ typedef struct srv_source_desc {
                                   seek, speed), listed in the hello's source.controls */
     const char *const *lookup; /* nm: the live label each model marker looks up (after the label
                                   map), for the hello's markers[].live; NULL: its own label */
+    const uint8_t *bound;      /* nm: 1 when the model marker is bound to a source marker (the
+                                  hello's markers[].bound); NULL: none is */
+    int idle;                  /* an idle bundle is ready for when no one is tracked */
 } srv_source_desc;
 
 struct srv_gen {
     atomic_int refs;
     uint32_t id;
     char name[MDL_NAME_LEN * 2];
+    char kind[16];    /* the model's primary kind (mdl_kind_name) */
     int nv, nf, nm, nparts;
     uint64_t topology;
     float qmin[3], qmax[3];
-    int *map;         /* nm: source marker index of each model marker, or -1 */
     unsigned char *hello; /* text, LWS_PRE headroom */
     size_t hello_len;
     unsigned char *topo;  /* binary, LWS_PRE headroom */
@@ -102,10 +106,10 @@ size_t srv_frame_size(int enc, int nv, int nm);
 size_t srv_topology_size(int nv, int nf);
 
 /* Builds a generation from the model's info (a plain struct, so tests can pass a hand-made one);
- * the generation copies what it needs and does not keep the model. map (nm entries, may be NULL =
- * unbound) is copied. refs starts at 1; the last srv_gen_unref frees it. */
-int srv_gen_create(const mdl_model_info *info, const int *map,
-                   const srv_source_desc *src, uint32_t id, srv_gen **out, char *err);
+ * the generation copies what it needs and keeps neither the model nor the source description.
+ * refs starts at 1; the last srv_gen_unref frees it. */
+int srv_gen_create(const mdl_model_info *info, const srv_source_desc *src, uint32_t id,
+                   srv_gen **out, char *err);
 void srv_gen_ref(srv_gen *g);
 void srv_gen_unref(srv_gen *g); /* NULL is fine */
 

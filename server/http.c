@@ -51,6 +51,8 @@ static char *healthz(srv_daemon *d)
     cJSON_AddNumberToObject(m, "faces", g->nf);
     cJSON_AddNumberToObject(m, "markers", g->nm);
     srv_gen_unref(g);
+    cJSON_AddStringToObject(m, "kind", g->kind);
+    cJSON_AddStringToObject(h, "driver", srv_pipeline_idle(d->pipe) ? "idle" : "tracked");
     cJSON *s = cJSON_AddObjectToObject(h, "source");
     cJSON_AddStringToObject(s, "spec", d->cfg.source);
     cJSON_AddStringToObject(s, "state", drv_state_name(st));
@@ -186,11 +188,13 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
         }
         if (!strcmp(uri, "/metrics")) {
             double up = (double)(srv_now_us() - d->t_start_us) * 1e-6;
-            size_t need = srv_metrics_render(&d->metrics, up, NULL, 0);
+            size_t base = srv_metrics_render(&d->metrics, up, NULL, 0);
+            size_t need = base + srv_stream_render_clients(d, NULL, 0);
             char *b = malloc(need + 1);
             if (!b)
                 return -1;
-            srv_metrics_render(&d->metrics, up, b, need + 1);
+            srv_metrics_render(&d->metrics, up, b, base + 1);
+            srv_stream_render_clients(d, b + base, need - base + 1);
             int rc = respond(wsi, r, HTTP_STATUS_OK, "text/plain; version=0.0.4; charset=utf-8", b,
                              need);
             free(b);

@@ -12,6 +12,7 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
+#include <stddef.h>
 #include <getopt.h>
 #include <netdb.h>
 #include <signal.h>
@@ -138,7 +139,34 @@ static int listen_address(const char *host, char *numeric, size_t n, uint64_t *o
     return 0;
 }
 
-static int parse_args(int argc, char **argv, srv_config *c, int *check_only)
+/* What the command line said, kept so that SIGHUP can build the settings again: the config file
+ * re-read, then the same flags on top (flags override the file). */
+typedef struct srv_args {
+    const char *config;
+    const char *keys[64], *vals[64];
+    int nflags, verbose;
+} srv_args;
+
+/* Defaults, then the config file, then the flags; validated. Fills a fresh struct: the caller
+ * swaps it in only when this succeeds (STYLE §7). */
+static int build_config(const srv_args *a, srv_config *c, char *err)
+{
+    char e[SRV_ERR_LEN];
+    srv_config_defaults(c);
+    if (a->config && srv_config_read(c, a->config, e))
+        return snprintf(err, SRV_ERR_LEN, "%s", e), -EINVAL;
+    for (int i = 0; i < a->nflags; i++)
+        if (srv_config_set(c, a->keys[i], a->vals[i], e))
+            return snprintf(err, SRV_ERR_LEN, "--%s: %.400s", a->keys[i], e), -EINVAL;
+    if (a->verbose)
+        c->log_level = a->verbose > 1 ? SRV_LOG_DEBUG
+                                      : (c->log_level > SRV_LOG_INFO ? c->log_level : SRV_LOG_INFO);
+    if (srv_config_validate(c, e))
+        return snprintf(err, SRV_ERR_LEN, "%s", e), -EINVAL;
+    return 0;
+}
+
+static int parse_args(int argc, char **argv, srv_args *a, srv_config *c, int *check_only)
 {
     enum { O_RECORD = 256, O_MAXC, O_MAXM, O_IDLE, O_TOKEN, O_ORIGIN, O_WEB, O_ENC, O_LOG, O_CHECK,
            O_VERSION, O_LABELS };
@@ -155,9 +183,7 @@ static int parse_args(int argc, char **argv, srv_config *c, int *check_only)
         {0, 0, 0, 0},
     };
     /* flags override the file: collect them first, read the file, then apply them */
-    const char *keys[64], *vals[64];
-    int nflags = 0, verbose = 0;
-    const char *config = NULL;
+    memset(a, 0, sizeof *a);
     int o;
     while ((o = getopt_long(argc, argv, "m:s:l:c:vh", opts, NULL)) != -1) {
         const char *key = NULL;
@@ -165,7 +191,7 @@ static int parse_args(int argc, char **argv, srv_config *c, int *check_only)
         case 'm': key = "model"; break;
         case 's': key = "source"; break;
         case 'l': key = "listen"; break;
-        case 'c': config = optarg; break;
+        case 'c': a->config = optarg; break;
         case O_RECORD: key = "record"; break;
         case O_MAXC: key = "max_clients"; break;
         case O_MAXM: key = "max_message"; break;
@@ -176,15 +202,15 @@ static int parse_args(int argc, char **argv, srv_config *c, int *check_only)
         case O_ENC: key = "encoding"; break;
         case O_LOG: key = "log_level"; break;
         case O_LABELS: key = "labels"; break;
-        case 'v': verbose++; break;
+        case 'v': a->verbose++; break;
         case O_CHECK: *check_only = 1; break;
         case 'h': usage(stdout); exit(0);
         case O_VERSION: printf("meshsteerd %s\n", MESHSTEER_VERSION); exit(0);
         default: usage(stderr); return 2;
         }
-        if (key && nflags < 64) {
-            keys[nflags] = key;
-            vals[nflags++] = optarg;
+        if (key && a->nflags < 64) {
+            a->keys[a->nflags] = key;
+            a->vals[a->nflags++] = optarg;
         }
     }
     if (optind < argc) {
@@ -192,30 +218,56 @@ static int parse_args(int argc, char **argv, srv_config *c, int *check_only)
         return 2;
     }
     char err[SRV_ERR_LEN];
-    if (config && srv_config_read(c, config, err)) {
-        fprintf(stderr, "meshsteerd: %s\n", err);
-        return 2;
-    }
-    for (int i = 0; i < nflags; i++)
-        if (srv_config_set(c, keys[i], vals[i], err)) {
-            fprintf(stderr, "meshsteerd: --%s: %s\n", keys[i], err);
-            return 2;
-        }
-    if (verbose)
-        c->log_level = verbose > 1 ? SRV_LOG_DEBUG : (c->log_level > SRV_LOG_INFO ? c->log_level : SRV_LOG_INFO);
-    if (srv_config_validate(c, err)) {
+    if (build_config(a, c, err)) {
         fprintf(stderr, "meshsteerd: %s\n", err);
         return 2;
     }
     return 0;
 }
 
+/* SIGHUP: the settings are built again from the file and the flags; when valid, those that can
+ * change while serving take effect (model, labels, log level, client limits, token, origin,
+ * default encoding) and the others are reported as needing a restart. */
+static int reload_config(srv_daemon *d, const srv_args *a)
+{
+    static srv_config fresh; /* large; the main thread only */
+    char err[SRV_ERR_LEN];
+    if (build_config(a, &fresh, err)) {
+        srv_log(SRV_LOG_ERROR, "SIGHUP: the settings are not valid, keeping the current ones: %s",
+                err);
+        return -EINVAL;
+    }
+    static const struct {
+        const char *name;
+        size_t off, len;
+    } fixed[] = {
+        {"source", offsetof(srv_config, source), sizeof fresh.source},
+        {"listen", offsetof(srv_config, listen_host), sizeof fresh.listen_host},
+        {"listen port", offsetof(srv_config, port), sizeof fresh.port},
+        {"record", offsetof(srv_config, record), sizeof fresh.record},
+        {"max_message", offsetof(srv_config, max_message), sizeof fresh.max_message},
+        {"web_root", offsetof(srv_config, web_root), sizeof fresh.web_root},
+    };
+    resolve_web_root(&fresh);
+    for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++)
+        if (memcmp((const char *)&fresh + fixed[i].off, (const char *)&d->cfg + fixed[i].off,
+                   fixed[i].len))
+            srv_log(SRV_LOG_WARN, "SIGHUP: '%s' changed; it takes effect at the next start",
+                    fixed[i].name);
+    srv_config keep = d->cfg;
+    d->cfg = fresh;
+    for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++)
+        memcpy((char *)&d->cfg + fixed[i].off, (const char *)&keep + fixed[i].off, fixed[i].len);
+    srv_log_set_level(d->cfg.log_level);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     static srv_daemon d; /* large; and the lws context points at it for its lifetime */
-    srv_config_defaults(&d.cfg);
+    static srv_args args;
     int check_only = 0;
-    int rc = parse_args(argc, argv, &d.cfg, &check_only);
+    int rc = parse_args(argc, argv, &args, &d.cfg, &check_only);
     if (rc)
         return rc;
     if (check_only) {
@@ -247,20 +299,28 @@ int main(int argc, char **argv)
         return 1;
     }
     srv_log(SRV_LOG_NOTICE, "source %s: %d markers at %g fps", d.cfg.source, src->count, src->fps);
-    srv_bundle b;
-    if (d.cfg.labels[0])
-        srv_log(SRV_LOG_NOTICE, "labels: %s", d.cfg.labels);
-    if (srv_pipeline_load(d.cfg.model, d.cfg.labels, src, d.cfg.source, 1, &b, err)) {
+    srv_source_info si;
+    if (srv_source_info_init(&si, src, d.cfg.source, err)) {
         srv_log(SRV_LOG_ERROR, "%s", err);
         drv_source_close(src);
         return 1;
     }
-    srv_log(SRV_LOG_NOTICE, "model %s: '%s', %d vertices, %d faces, %d parts, %d markers",
-            d.cfg.model, b.gen->name, b.gen->nv, b.gen->nf, b.gen->nparts, b.gen->nm);
-    if (srv_pipeline_create(src, d.cfg.source, &b, &d.metrics, d.cfg.record, wake, &d, &d.pipe,
-                            err)) {
+    srv_bundle b;
+    if (d.cfg.labels[0])
+        srv_log(SRV_LOG_NOTICE, "labels: %s", d.cfg.labels);
+    if (srv_pipeline_load(d.cfg.model, d.cfg.labels, &si, 1, &b, err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        srv_source_info_fini(&si);
+        drv_source_close(src);
+        return 1;
+    }
+    srv_log(SRV_LOG_NOTICE, "model %s: '%s', %d vertices, %d faces, %d parts, %d markers%s",
+            d.cfg.model, b.gen->name, b.gen->nv, b.gen->nf, b.gen->nparts, b.gen->nm,
+            b.inputs & MDL_INPUT_MARKERS ? "" : ", driven by its own clock");
+    if (srv_pipeline_create(src, &si, &b, &d.metrics, d.cfg.record, wake, &d, &d.pipe, err)) {
         srv_log(SRV_LOG_ERROR, "%s", err);
         srv_bundle_fini(&b);
+        srv_source_info_fini(&si);
         drv_source_close(src);
         return 1;
     }
@@ -328,6 +388,7 @@ int main(int argc, char **argv)
         if (sig_reload) {
             sig_reload = 0;
             sd_notify(0, "RELOADING=1");
+            reload_config(&d, &args);
             int r = srv_pipeline_reload(d.pipe, d.cfg.model, d.cfg.labels);
             if (r == -EBUSY)
                 srv_log(SRV_LOG_WARN, "SIGHUP: a reload is already running");

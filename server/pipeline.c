@@ -30,11 +30,13 @@ typedef struct ctl_entry {
 
 struct srv_pipeline {
     drv_source *src;
+    srv_source_info si;            /* what other threads may read of the source */
+    atomic_uint controls;          /* SRV_CTL_BIT()s the source accepts now (changes on reopen) */
+    atomic_int idle_on;            /* the idle synthesis drives the output */
     srv_metrics *m;
     void (*wake)(void *);
     void *wake_ud;
     srv_recorder *rec;
-    char spec[SRV_PATH_LEN];
 
     pthread_t source_thread, synth_thread;
     pthread_t usb_thread;          /* depth sources: watches USB for the sensor coming and going */
@@ -95,26 +97,55 @@ void srv_bundle_fini(srv_bundle *b)
     if (!b)
         return;
     mdl_synth_destroy(b->synth);
+    mdl_synth_destroy(b->idle);
     mdl_model_destroy(b->model);
     srv_gen_unref(b->gen);
+    free(b->map);
     free(b->V);
     free(b->mk);
     free(b->mv);
     memset(b, 0, sizeof *b);
 }
 
-unsigned srv_pipeline_source_controls(const drv_source *src)
+unsigned srv_controls_of_source(unsigned drv_controls)
 {
     unsigned c = 0;
-    if (src && src->ops->control) {
-        if (src->controls & DRV_CTL_PAUSE)
-            c |= SRV_CTL_BIT(SRV_CTL_PAUSE) | SRV_CTL_BIT(SRV_CTL_RESUME);
-        if (src->controls & DRV_CTL_SEEK)
-            c |= SRV_CTL_BIT(SRV_CTL_SEEK);
-        if (src->controls & DRV_CTL_SPEED)
-            c |= SRV_CTL_BIT(SRV_CTL_SPEED);
-    }
+    if (drv_controls & DRV_CTL_PAUSE)
+        c |= SRV_CTL_BIT(SRV_CTL_PAUSE) | SRV_CTL_BIT(SRV_CTL_RESUME);
+    if (drv_controls & DRV_CTL_SEEK)
+        c |= SRV_CTL_BIT(SRV_CTL_SEEK);
+    if (drv_controls & DRV_CTL_SPEED)
+        c |= SRV_CTL_BIT(SRV_CTL_SPEED);
     return c;
+}
+
+int srv_source_info_init(srv_source_info *si, const drv_source *src, const char *spec, char *err)
+{
+    memset(si, 0, sizeof *si);
+    snprintf(si->spec, sizeof si->spec, "%s", spec ? spec : "");
+    snprintf(si->scheme, sizeof si->scheme, "%s", src->ops->scheme);
+    si->count = src->count;
+    si->fps = src->fps;
+    si->caps = src->caps;
+    si->controls = src->ops->control ? srv_controls_of_source(src->controls) : 0;
+    si->names = calloc((size_t)src->count + 1, sizeof *si->names);
+    for (int i = 0; si->names && i < src->count; i++)
+        if (!(si->names[i] = strdup(src->names[i] ? src->names[i] : ""))) {
+            srv_source_info_fini(si);
+            break;
+        }
+    if (!si->names)
+        return srv_err(err, -ENOMEM, "source: out of memory");
+    return 0;
+}
+
+void srv_source_info_fini(srv_source_info *si)
+{
+    if (si->names)
+        for (int i = 0; i < si->count; i++)
+            free(si->names[i]);
+    free(si->names);
+    memset(si, 0, sizeof *si);
 }
 
 static void warn_labels(void *ud, const char *msg)
@@ -122,112 +153,158 @@ static void warn_labels(void *ud, const char *msg)
     srv_log(SRV_LOG_WARN, "model %s: labels: %s", (const char *)ud, msg);
 }
 
-int srv_pipeline_load(const char *model_path, const char *labels, const drv_source *src,
-                      const char *spec, uint32_t id, srv_bundle *out, char *err)
+/* Binds the model's markers to the source's labels through the label map; fills b->map and the
+ * hello's view of it (lookup, bound: lookup[] may point into the label map, which the caller frees
+ * with srv_labels_destroy once the generation has copied them). Logs what stays unbound. */
+static int bind_markers(srv_bundle *b, const mdl_model_info *info, const char *model_path,
+                        const char *labels, const srv_source_info *src, const char **lookup,
+                        uint8_t *bound, srv_labels **lmap_out, char *err)
 {
-    memset(out, 0, sizeof *out);
     char e[MDL_ERR_LEN] = "";
     srv_labels *lmap = NULL;
     int r = srv_labels_create(labels, &lmap, e); /* validated with the settings already */
     if (r)
         return srv_err(err, r, "labels: %s", e);
-    mdl_model *model = NULL;
-    r = mdl_model_load(model_path, &model, e);
-    if (r) {
-        srv_labels_destroy(lmap);
-        return srv_err(err, r, "model: %s", e);
-    }
-    mdl_model_info info;
-    mdl_model_get_info(model, &info);
-    int *map = calloc((size_t)(info.nmarkers > 0 ? info.nmarkers : 1), sizeof *map);
-    if (!map) {
-        srv_labels_destroy(lmap);
-        mdl_model_destroy(model);
-        return srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
-    }
-    r = srv_labels_bind(lmap, &info, (const char *const *)src->names, src->count, map, warn_labels,
-                        (void *)model_path);
-    int bound = 0;
-    for (int i = 0; r >= 0 && i < info.nmarkers; i++)
-        bound += map[i] >= 0 && map[i] < src->count;
-    if (r < 0 || bound == 0) {
-        free(map);
-        srv_labels_destroy(lmap);
-        mdl_model_destroy(model);
+    *lmap_out = lmap;
+    r = srv_labels_bind(lmap, info, (const char *const *)src->names, src->count, b->map,
+                        warn_labels, (void *)model_path);
+    int nbound = 0;
+    for (int i = 0; r >= 0 && i < info->nmarkers; i++)
+        nbound += b->map[i] >= 0 && b->map[i] < src->count;
+    if (r < 0 || nbound == 0)
         return srv_err(err, r < 0 ? r : -ENOENT,
-                      "model %s: none of its %d markers is among the source's %d markers "
-                      "(the rig's 'source' names must match the marker labels, or be mapped to "
-                      "them with --labels / 'labels = MODEL=LABEL,...')",
-                      model_path, info.nmarkers, src->count);
-    }
-    if (bound < info.nmarkers) {
+                       "model %s: none of its %d markers is among the source's %d markers "
+                       "(the rig's 'source' names must match the marker labels, or be mapped to "
+                       "them with --labels / 'labels = MODEL=LABEL,...')",
+                       model_path, info->nmarkers, src->count);
+    if (nbound < info->nmarkers) {
         char names[512];
         size_t at = 0;
         names[0] = '\0';
-        for (int i = 0; i < info.nmarkers && at < sizeof names; i++)
-            if (map[i] < 0) {
+        for (int i = 0; i < info->nmarkers && at < sizeof names; i++)
+            if (b->map[i] < 0) {
                 int w = snprintf(names + at, sizeof names - at, "%s%s", at ? ", " : "",
-                                 srv_labels_lookup(lmap, info.markers[i].source));
+                                 srv_labels_lookup(lmap, info->markers[i].source));
                 at += w > 0 ? (size_t)w : 0;
             }
         srv_log(SRV_LOG_WARN, "model %s: %d of %d markers are not in the source (%s); they count "
-                "as missing", model_path, info.nmarkers - bound, info.nmarkers, names);
+                "as missing", model_path, info->nmarkers - nbound, info->nmarkers, names);
     }
     /* the live label each marker is bound to, or looks up in vain, for the hello */
-    const char **lookup = calloc((size_t)(info.nmarkers > 0 ? info.nmarkers : 1), sizeof *lookup);
-    if (!lookup) {
-        free(map);
-        srv_labels_destroy(lmap);
-        mdl_model_destroy(model);
-        return srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
+    for (int i = 0; i < info->nmarkers; i++) {
+        bound[i] = b->map[i] >= 0;
+        lookup[i] = b->map[i] >= 0 ? src->names[b->map[i]]
+                                   : srv_labels_lookup(lmap, info->markers[i].source);
     }
-    for (int i = 0; i < info.nmarkers; i++)
-        lookup[i] = map[i] >= 0 ? src->names[map[i]] : srv_labels_lookup(lmap, info.markers[i].source);
-    srv_source_desc desc = {
-        .spec = spec,
-        .scheme = src->ops->scheme,
-        .fps = src->fps,
-        .count = src->count,
-        .names = (const char *const *)src->names,
-        .controls = srv_pipeline_source_controls(src),
-        .lookup = lookup,
-    };
-    out->model = model;
-    r = srv_gen_create(&info, map, &desc, id, &out->gen, e);
-    free(lookup);
-    free(map);
-    srv_labels_destroy(lmap);
-    if (r) {
-        srv_bundle_fini(out);
-        return srv_err(err, r, "model %s: %s", model_path, e);
+    return 0;
+}
+
+/* The idle synthesis: the first clock-driven kind of the model other than the primary one. */
+static int create_idle(srv_bundle *b, const mdl_model_info *info, const char *model_path,
+                       char *err)
+{
+    if (!(b->inputs & MDL_INPUT_MARKERS))
+        return 0; /* the primary kind already runs on the clock */
+    for (int k = 1; k < info->nkinds; k++) {
+        char e[MDL_ERR_LEN] = "";
+        mdl_synth *s = NULL;
+        int r = mdl_synth_create(b->model, info->kinds[k], &s, e);
+        if (r)
+            return srv_err(err, r, "model %s: idle synthesis (%s): %s", model_path,
+                           mdl_kind_name(info->kinds[k]), e);
+        if (mdl_synth_inputs(s) & MDL_INPUT_CLOCK && !(mdl_synth_inputs(s) & MDL_INPUT_MARKERS)) {
+            b->idle = s;
+            srv_log(SRV_LOG_NOTICE, "model %s: its %s model drives the mesh when no one is "
+                    "tracked", model_path, mdl_kind_name(info->kinds[k]));
+            return 0;
+        }
+        mdl_synth_destroy(s);
     }
-    r = mdl_synth_create(model, &out->synth, e);
+    return 0;
+}
+
+int srv_pipeline_load(const char *model_path, const char *labels, const srv_source_info *src,
+                      uint32_t id, srv_bundle *out, char *err)
+{
+    memset(out, 0, sizeof *out);
+    char e[MDL_ERR_LEN] = "";
+    int r = mdl_model_load(model_path, &out->model, e);
+    if (r)
+        return srv_err(err, r, "model: %s", e);
+    mdl_model_info info;
+    mdl_model_get_info(out->model, &info);
+    r = mdl_synth_create(out->model, 0, &out->synth, e);
     if (r) {
         srv_bundle_fini(out);
         return srv_err(err, r, "model %s: synthesis: %s", model_path, e);
     }
+    out->inputs = mdl_synth_inputs(out->synth);
+    out->clock_fps = info.fps > 0 && info.fps <= 240 ? info.fps : 30;
+    out->nm = info.inputs & MDL_INPUT_MARKERS ? info.nmarkers : 0;
+    size_t nm1 = (size_t)out->nm + 1;
+    out->map = calloc(nm1, sizeof *out->map);
     out->V = calloc((size_t)info.nv * 3, sizeof(float));
-    out->mk = calloc((size_t)(info.nmarkers + 1) * 3, sizeof(float));
-    out->mv = calloc((size_t)info.nmarkers + 1, 1);
-    if (!out->V || !out->mk || !out->mv) {
-        srv_bundle_fini(out);
-        return srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
+    out->mk = calloc(nm1 * 3, sizeof(float));
+    out->mv = calloc(nm1, 1);
+    const char **lookup = calloc(nm1, sizeof *lookup);
+    uint8_t *bound = calloc(nm1, 1);
+    srv_labels *lmap = NULL;
+    if (!out->map || !out->V || !out->mk || !out->mv || !lookup || !bound) {
+        r = srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
+        goto fail;
     }
     memcpy(out->V, info.rest, (size_t)info.nv * 3 * sizeof(float)); /* the pose before any */
+    if (out->nm > 0) {
+        r = bind_markers(out, &info, model_path, labels, src, lookup, bound, &lmap, err);
+        if (r)
+            goto fail;
+    } else if (labels && labels[0]) {
+        srv_log(SRV_LOG_WARN, "model %s: its %s model reads no markers; --labels is ignored",
+                model_path, mdl_kind_name(info.kind));
+    }
+    if ((r = create_idle(out, &info, model_path, err)))
+        goto fail;
+    srv_source_desc desc = {
+        .spec = src->spec,
+        .scheme = src->scheme,
+        .fps = src->fps,
+        .count = src->count,
+        .names = (const char *const *)src->names,
+        .controls = src->controls,
+        .lookup = lookup,
+        .bound = bound,
+        .idle = out->idle != NULL,
+    };
+    info.nmarkers = out->nm; /* the hello lists the markers the model is driven by */
+    r = srv_gen_create(&info, &desc, id, &out->gen, e);
+    if (r) {
+        r = srv_err(err, r, "model %s: %s", model_path, e);
+        goto fail;
+    }
+    free(lookup);
+    free(bound);
+    srv_labels_destroy(lmap);
     return 0;
+fail:
+    free(lookup);
+    free(bound);
+    srv_labels_destroy(lmap);
+    srv_bundle_fini(out);
+    return r;
 }
 
 /* ------------------------------------------------------------------ creation */
 
-int srv_pipeline_create(drv_source *src, const char *spec, srv_bundle *b, srv_metrics *m, const char *record,
-                        void (*wake)(void *), void *wake_ud, srv_pipeline **out, char *err)
+int srv_pipeline_create(drv_source *src, srv_source_info *si, srv_bundle *b, srv_metrics *m,
+                        const char *record, void (*wake)(void *), void *wake_ud,
+                        srv_pipeline **out, char *err)
 {
     *out = NULL;
     srv_pipeline *p = calloc(1, sizeof *p);
     if (!p)
         return srv_err(err, -ENOMEM, "pipeline: out of memory");
     p->src = src;
-    snprintf(p->spec, sizeof p->spec, "%s", spec ? spec : "");
+    atomic_init(&p->controls, si->controls);
     p->m = m;
     p->wake = wake;
     p->wake_ud = wake_ud;
@@ -257,6 +334,8 @@ int srv_pipeline_create(drv_source *src, const char *spec, srv_bundle *b, srv_me
     }
     p->cur = *b;
     memset(b, 0, sizeof *b);
+    p->si = *si;
+    memset(si, 0, sizeof *si);
     *out = p;
     return 0;
 }
@@ -277,6 +356,18 @@ static void push_result(srv_pipeline *p, uint64_t tag, const char *reply, size_t
     pthread_mutex_unlock(&p->ctl_lock);
 }
 
+/* A control kind as the source takes it: its DRV_CTL_* bit and value. */
+static unsigned drv_control_of(const srv_control *c, double *value)
+{
+    switch (c->kind) {
+    case SRV_CTL_PAUSE: *value = 1; return DRV_CTL_PAUSE;
+    case SRV_CTL_RESUME: *value = 0; return DRV_CTL_PAUSE;
+    case SRV_CTL_SEEK: *value = c->value; return DRV_CTL_SEEK;
+    case SRV_CTL_SPEED: *value = c->value; return DRV_CTL_SPEED;
+    }
+    return 0;
+}
+
 static void apply_controls(srv_pipeline *p)
 {
     ctl_entry q[SRV_CTL_QUEUE];
@@ -287,22 +378,23 @@ static void apply_controls(srv_pipeline *p)
     pthread_mutex_unlock(&p->ctl_lock);
     for (int i = 0; i < n; i++) {
         const srv_control *c = &q[i].c;
-        const char *key = c->kind == SRV_CTL_SEEK ? "seek" : c->kind == SRV_CTL_SPEED ? "speed" : "pause";
-        double v = c->kind == SRV_CTL_PAUSE ? 1 : c->kind == SRV_CTL_RESUME ? 0 : c->value;
+        double v = 0;
+        unsigned ctl = drv_control_of(c, &v);
         char e[DRV_ERR_LEN] = "";
         char reply[SRV_REPLY_LEN];
         size_t len;
-        int r = drv_source_control(p->src, key, v, e);
+        int r = drv_source_control(p->src, ctl, v, e);
         if (r == 0) {
-            if (c->kind == SRV_CTL_SEEK)
+            if (ctl == DRV_CTL_SEEK)
                 atomic_store(&p->reset_synth, 1);
             len = srv_reply_ack(reply, c);
             srv_metrics_count(&p->m->control_ok, 1);
-            srv_log(SRV_LOG_INFO, "source control %s %g", key, v);
+            srv_log(SRV_LOG_INFO, "source control %s %g", srv_control_name(c->kind), v);
         } else {
             len = srv_reply_error(reply, r == -ENOTSUP ? "unsupported" : "source_error", e, c);
             srv_metrics_count(&p->m->control_errors, 1);
-            srv_log(SRV_LOG_INFO, "source control %s %g refused: %s", key, v, e);
+            srv_log(SRV_LOG_INFO, "source control %s %g refused: %s", srv_control_name(c->kind), v,
+                    e);
         }
         push_result(p, q[i].tag, reply, len);
     }
@@ -352,10 +444,13 @@ static void *source_main(void *arg)
             }
             if (atomic_load(&p->stop))
                 break;
-            if (drv_source_reopen(s, p->spec, e) == 0 && drv_source_start(s, e) == 0)
-                srv_log(SRV_LOG_NOTICE, "source %s: the device is back", p->spec);
-            else
-                srv_log(SRV_LOG_DEBUG, "source %s: still lost: %s", p->spec, e);
+            if (drv_source_reopen(s, p->si.spec, e) == 0 && drv_source_start(s, e) == 0) {
+                /* the one field of the source that may differ after a reopen */
+                atomic_store(&p->controls, s->ops->control ? srv_controls_of_source(s->controls) : 0);
+                srv_log(SRV_LOG_NOTICE, "source %s: the device is back", p->si.spec);
+            } else {
+                srv_log(SRV_LOG_DEBUG, "source %s: still lost: %s", p->si.spec, e);
+            }
         } else if (r == DRV_EEOF) {
             struct timespec ts = {0, 50 * 1000000L}; /* wait for a seek (or the end) */
             nanosleep(&ts, NULL);
@@ -417,17 +512,18 @@ static void synth_health(srv_pipeline *p, const srv_bundle *b, int r)
     if (++p->fail_run < SYNTH_DEGRADED_AFTER)
         return;
     int valid = 0;
-    for (int i = 0; i < b->gen->nm; i++)
+    for (int i = 0; i < b->nm; i++)
         valid += b->mv[i];
     uint64_t now = srv_now_us();
     if (p->fail_run == SYNTH_DEGRADED_AFTER || now - p->fail_logged_us >= SYNTH_LOG_EVERY_US) {
         pthread_mutex_lock(&p->pub);
         snprintf(p->degraded_why, sizeof p->degraded_why,
                  "synthesis refuses every frame: the model's reference markers were never valid "
-                 "(%d of %d model markers valid)", valid, b->gen->nm);
+                 "(%d of %d model markers valid)", valid, b->nm);
         pthread_mutex_unlock(&p->pub);
-        srv_log(SRV_LOG_WARN, "%llu frames in a row: %s; sending the last good pose (check the "
-                "source and --labels)", (unsigned long long)p->fail_run, p->degraded_why);
+        srv_log(SRV_LOG_WARN, "%llu frames in a row: %s; %s (check the source and --labels)",
+                (unsigned long long)p->fail_run, p->degraded_why,
+                b->idle ? "the idle animation takes over" : "sending the last good pose");
         p->fail_logged_us = now;
     }
     atomic_store(&p->degraded, 1);
@@ -443,88 +539,182 @@ int srv_pipeline_degraded(srv_pipeline *p, char *why, size_t n)
     return 1;
 }
 
+/* Publishes b->V (and the model-ordered markers b->mk, b->mv) as the newest frame. */
+static void publish(srv_pipeline *p, srv_bundle *b, uint64_t t_capture, uint64_t t0, int flags,
+                    int missing)
+{
+    srv_frame *f = srv_gen_free_frame(b->gen);
+    if (!f) { /* cannot happen with SRV_POOL >= 3; count it rather than trust it */
+        srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_BUSY], 1);
+        return;
+    }
+    uint64_t t1 = srv_now_us();
+    srv_frame_encode(f, p->seq + 1, t_capture, t1, b->V, b->mk, b->mv, flags, missing);
+    uint64_t t2 = srv_now_us();
+    srv_hist_observe(&p->m->synth, t2 - t0);
+    srv_frame_ref(f);
+    pthread_mutex_lock(&p->pub);
+    srv_frame *old = p->latest;
+    p->latest = f;
+    p->seq++;
+    pthread_mutex_unlock(&p->pub);
+    srv_frame_unref(old);
+    srv_metrics_count(&p->m->frames_synth, 1);
+    p->wake(p->wake_ud);
+}
+
+/* Waits for a source frame newer than the last one taken, until deadline_us (CLOCK_MONOTONIC) or
+ * stop, and copies it. Returns 1 with a frame, 0 without. */
+static int take_slot(srv_pipeline *p, uint64_t deadline_us, float *xyz, uint8_t *valid,
+                     uint64_t *t_capture)
+{
+    int count = p->si.count;
+    pthread_mutex_lock(&p->slot_lock);
+    while (p->written == p->taken && !atomic_load(&p->stop)) {
+        uint64_t now = srv_now_us();
+        if (now >= deadline_us)
+            break;
+        /* the condition variable waits on CLOCK_REALTIME: a relative wait of what is left */
+        uint64_t left = deadline_us - now;
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        ts.tv_sec += (time_t)(left / 1000000u);
+        ts.tv_nsec += (long)(left % 1000000u) * 1000L;
+        if (ts.tv_nsec >= 1000000000L) {
+            ts.tv_sec++;
+            ts.tv_nsec -= 1000000000L;
+        }
+        pthread_cond_timedwait(&p->slot_cond, &p->slot_lock, &ts);
+    }
+    if (p->written == p->taken || atomic_load(&p->stop)) {
+        pthread_mutex_unlock(&p->slot_lock);
+        return 0;
+    }
+    uint64_t skipped = p->written - p->taken - 1;
+    const slot *sl = &p->slots[(p->written - 1) % SLOT_COUNT];
+    memcpy(xyz, sl->xyz, (size_t)count * 3 * sizeof(float));
+    memcpy(valid, sl->valid, (size_t)count);
+    *t_capture = sl->t_capture_us;
+    p->taken = p->written;
+    pthread_mutex_unlock(&p->slot_lock);
+    if (skipped)
+        srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_BUSY], skipped);
+    return 1;
+}
+
+/* One frame of the tracked (marker-driven) kind. Returns 0 when a frame was published. */
+static int synth_tracked(srv_pipeline *p, srv_bundle *b, const float *xyz, const uint8_t *valid,
+                         uint64_t t_capture)
+{
+    int count = p->si.count;
+    if (atomic_exchange(&p->reset_synth, 0))
+        mdl_synth_reset(b->synth);
+    /* source order -> model marker order */
+    for (int i = 0; i < b->nm; i++) {
+        int j = b->map[i];
+        int ok = j >= 0 && j < count && valid[j];
+        b->mv[i] = (uint8_t)ok;
+        for (int a = 0; a < 3; a++)
+            b->mk[i * 3 + a] = ok ? xyz[j * 3 + a] : 0.0f;
+    }
+    uint64_t t0 = srv_now_us();
+    mdl_synth_info si = {0};
+    int r = mdl_synth_markers(b->synth, b->mk, b->mv, b->V, &si); /* V kept when refused */
+    synth_health(p, b, r);
+    if (r != 0) {
+        if (!b->idle) /* the last good pose again (the idle animation takes over otherwise) */
+            publish(p, b, t_capture, t0, SRV_FLAG_REFERENCE_LOST, si.markers_missing);
+        return r;
+    }
+    int flags = (si.reference_lost ? SRV_FLAG_REFERENCE_LOST : 0) |
+                (si.markers_held ? SRV_FLAG_HELD : 0);
+    publish(p, b, t_capture, t0, flags, si.markers_missing);
+    return 0;
+}
+
+/* One frame of a clock-driven synthesis (the primary kind, or the idle one) at t seconds. */
+static void synth_clock(srv_pipeline *p, srv_bundle *b, mdl_synth *s, double t, int flags)
+{
+    uint64_t t0 = srv_now_us();
+    mdl_synth_input in = {.t = t};
+    int r = mdl_synth_frame(s, &in, b->V, NULL);
+    if (r != 0) {
+        srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_FAILED], 1);
+        return;
+    }
+    memset(b->mv, 0, (size_t)b->nm); /* no marker drives it */
+    publish(p, b, t0, t0, flags, b->nm);
+}
+
+static void set_idle(srv_pipeline *p, int on, const char *why)
+{
+    if (atomic_exchange(&p->idle_on, on) != on)
+        srv_log(SRV_LOG_NOTICE, on ? "no one is tracked (%s): the idle animation takes over"
+                                   : "tracking again (%s)", why);
+}
+
 static void *synth_main(void *arg)
 {
     srv_pipeline *p = arg;
-    int count = p->src->count;
-    float *xyz = calloc((size_t)count * 3, sizeof(float));
-    uint8_t *valid = calloc((size_t)count, 1);
-    uint64_t t_capture = 0;
+    int count = p->si.count;
+    float *xyz = calloc((size_t)count * 3 + 3, sizeof(float));
+    uint8_t *valid = calloc((size_t)count + 1, 1);
+    uint64_t t_start = srv_now_us(), next_tick = t_start, last_frame = t_start;
+    int failed = 0; /* consecutive frames the tracked kind could not synthesise */
+    uint64_t last_capture = 0; /* of the markers in xyz, valid */
+    int have_markers = 0;
     while (xyz && valid && !atomic_load(&p->stop)) {
-        pthread_mutex_lock(&p->slot_lock);
-        int again = 0; /* a reload swapped in while no frame came: the last markers once more */
-        while (p->written == p->taken && !atomic_load(&p->stop) && !again) {
-            struct timespec ts;
-            clock_gettime(CLOCK_REALTIME, &ts);
-            ts.tv_nsec += 100 * 1000000L;
-            if (ts.tv_nsec >= 1000000000L) {
-                ts.tv_sec++;
-                ts.tv_nsec -= 1000000000L;
-            }
-            pthread_cond_timedwait(&p->slot_cond, &p->slot_lock, &ts);
-            /* a reload swaps in without a frame too (a paused or ended source sends none) */
-            pthread_mutex_unlock(&p->slot_lock);
-            again = swap_pending(p) && p->taken > 0;
-            pthread_mutex_lock(&p->slot_lock);
-        }
-        if (atomic_load(&p->stop)) {
-            pthread_mutex_unlock(&p->slot_lock);
-            break;
-        }
-        uint64_t skipped = 0;
-        if (!again || p->written != p->taken) {
-            skipped = p->written - p->taken - 1;
-            const slot *sl = &p->slots[(p->written - 1) % SLOT_COUNT];
-            memcpy(xyz, sl->xyz, (size_t)count * 3 * sizeof(float));
-            memcpy(valid, sl->valid, (size_t)count);
-            t_capture = sl->t_capture_us;
-            p->taken = p->written;
-        }
-        pthread_mutex_unlock(&p->slot_lock);
-        if (skipped)
-            srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_BUSY], skipped);
-
-        swap_pending(p);
         srv_bundle *b = &p->cur;
-        srv_gen *g = b->gen;
-        if (atomic_exchange(&p->reset_synth, 0))
-            mdl_synth_reset(b->synth);
-        /* source order -> model marker order */
-        for (int i = 0; i < g->nm; i++) {
-            int j = g->map[i];
-            int ok = j >= 0 && j < count && valid[j];
-            b->mv[i] = (uint8_t)ok;
-            for (int a = 0; a < 3; a++)
-                b->mk[i * 3 + a] = ok ? xyz[j * 3 + a] : 0.0f;
+        int clocked = !(b->inputs & MDL_INPUT_MARKERS);
+        uint64_t now = srv_now_us();
+        drv_state st = (drv_state)atomic_load(&p->src_state);
+        const char *why = st == DRV_STATE_LOST    ? "the source is lost"
+                        : st == DRV_STATE_ENDED   ? "the source ended"
+                        : now - last_frame > SRV_IDLE_AFTER_US ? "no source frames"
+                        : failed >= (int)b->clock_fps ? "the markers do not allow a pose"
+                                                      : NULL;
+        int idle = !clocked && b->idle && why;
+        uint64_t deadline = clocked || idle ? next_tick : now + 100000u;
+        uint64_t t_capture = 0;
+        int got = take_slot(p, deadline, xyz, valid, &t_capture);
+        if (atomic_load(&p->stop))
+            break;
+        int swapped = swap_pending(p);
+        b = &p->cur;
+        clocked = !(b->inputs & MDL_INPUT_MARKERS);
+        now = srv_now_us();
+        if (got) {
+            last_capture = t_capture;
+            have_markers = 1;
+        } else if (swapped && !clocked && have_markers) {
+            /* a reload while no frame comes (paused): the last markers through the new model, so
+             * that clients are greeted with it now, not at the resume */
+            t_capture = last_capture;
+            got = 1;
         }
-        uint64_t t0 = srv_now_us();
-        mdl_synth_info si = {0};
-        int r = mdl_synth_frame(b->synth, b->mk, b->mv, b->V, &si); /* V kept when refused */
-        synth_health(p, b, r);
-        if (r != 0)
-            si.reference_lost = 1;
-        srv_frame *f = srv_gen_free_frame(g);
-        if (!f) { /* cannot happen with SRV_POOL >= 3; count it rather than trust it */
-            srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_BUSY], 1);
-            continue;
+        if (got) {
+            last_frame = now;
+            if (!clocked) {
+                if (synth_tracked(p, b, xyz, valid, t_capture) == 0) {
+                    failed = 0;
+                    set_idle(p, 0, "a pose from the markers");
+                } else {
+                    failed++;
+                }
+                continue;
+            }
         }
-        int flags = (si.reference_lost ? SRV_FLAG_REFERENCE_LOST : 0) |
-                    (si.markers_held ? SRV_FLAG_HELD : 0);
-        uint64_t t1 = srv_now_us();
-        srv_frame_encode(f, p->seq + 1, t_capture, t1, b->V, b->mk, b->mv, flags,
-                         si.markers_missing);
-        uint64_t t2 = srv_now_us();
-        srv_hist_observe(&p->m->synth, t2 - t0);
-        srv_frame_ref(f);
-        pthread_mutex_lock(&p->pub);
-        srv_frame *old = p->latest;
-        p->latest = f;
-        p->seq++;
-        pthread_mutex_unlock(&p->pub);
-        srv_frame_unref(old);
-        if (r == 0)
-            srv_metrics_count(&p->m->frames_synth, 1);
-        p->wake(p->wake_ud);
+        idle = !clocked && b->idle && why;
+        if ((clocked || idle) && now >= next_tick) {
+            uint64_t period = (uint64_t)(1e6 / b->clock_fps);
+            next_tick += period;
+            if (next_tick < now) /* late (a reload, a stall): no burst to catch up */
+                next_tick = now + period;
+            if (idle)
+                set_idle(p, 1, why);
+            synth_clock(p, b, clocked ? b->synth : b->idle, (double)(now - t_start) * 1e-6,
+                        idle ? SRV_FLAG_IDLE : 0);
+        }
     }
     free(xyz);
     free(valid);
@@ -555,11 +745,11 @@ static void *usb_main(void *arg)
     return NULL;
 }
 
-/* Depth cameras (openni2:, v4l2:) get a watcher that logs sensors arriving and leaving and, when
+/* Live USB devices (DRV_CAP_USB_DEVICE: depth cameras) get a watcher that logs sensors arriving and leaving and, when
  * one arrives, lets a lost source reopen at once instead of at its next once-a-second try. */
 static void usb_watch_start(srv_pipeline *p)
 {
-    if (strncmp(p->spec, "openni2", 7) && strncmp(p->spec, "v4l2", 4))
+    if (!(p->si.caps & DRV_CAP_USB_DEVICE))
         return;
     char e[DRV_ERR_LEN];
     int r = drv_device_watch_create(usb_event, p, &p->usb, e);
@@ -653,6 +843,7 @@ void srv_pipeline_destroy(srv_pipeline *p)
     pthread_mutex_destroy(&p->pub);
     pthread_mutex_destroy(&p->ctl_lock);
     drv_source_close(p->src);
+    srv_source_info_fini(&p->si);
     free(p);
 }
 
@@ -711,8 +902,7 @@ static void *reload_main(void *arg)
     srv_pipeline *p = arg;
     srv_bundle b;
     uint32_t id = atomic_fetch_add(&p->next_gen, 1);
-    int r = srv_pipeline_load(p->reload_path, p->reload_labels, p->src, p->spec, id, &b,
-                              p->reload_err);
+    int r = srv_pipeline_load(p->reload_path, p->reload_labels, &p->si, id, &b, p->reload_err);
     if (r == 0) {
         srv_bundle old;
         pthread_mutex_lock(&p->pub);
@@ -764,7 +954,17 @@ drv_state srv_pipeline_source_state(srv_pipeline *p)
     return (drv_state)atomic_load(&p->src_state);
 }
 
-const drv_source *srv_pipeline_source(srv_pipeline *p)
+const srv_source_info *srv_pipeline_source_info(srv_pipeline *p)
 {
-    return p->src;
+    return &p->si;
+}
+
+unsigned srv_pipeline_controls(srv_pipeline *p)
+{
+    return atomic_load(&p->controls);
+}
+
+int srv_pipeline_idle(srv_pipeline *p)
+{
+    return atomic_load(&p->idle_on);
 }

@@ -1,8 +1,14 @@
 /* pipeline.h - the daemon's two worker threads (DESIGN.md, "Threads of the daemon").
  *
  *   source thread:    drv_source_read (paced by the source) -> newest-marker slot (+ recording)
- *   synthesis thread: newest slot -> model marker order -> mdl_synth_frame -> srv_frame_encode
- *                     -> publish as the latest frame under `pub` -> wake()
+ *   synthesis thread: newest slot -> model marker order (the bundle's map) -> mdl_synth_frame
+ *                     -> srv_frame_encode -> publish as the latest frame under `pub` -> wake()
+ * A bundle whose kind reads no markers (a clock-driven kind, MDL_INPUT_CLOCK) is run on a clock at
+ * its model's fps instead of at the source's frames. A bundle may also hold an *idle* synthesis:
+ * the clock-driven kind of the same model file (so the same mesh, and no new hello when it takes
+ * over), which the synthesis thread runs whenever no one is tracked: the source is lost or ended,
+ * no source frame came for SRV_IDLE_AFTER_US, or the tracked kind cannot synthesise (no reference
+ * yet, every marker invalid). Its frames carry SRV_FLAG_IDLE.
  * wake() is lws_cancel_service in the daemon (the only lws call made from these threads).
  * Per frame nothing is allocated: buffers come with the generation (srv_pipeline_load).
  *
@@ -14,6 +20,7 @@
 #define MESHSTEER_SERVER_PIPELINE_H
 
 #include "control.h"
+#include "daemon_config.h"
 #include "drivers.h"
 #include "encode.h"
 #include "metrics.h"
@@ -25,11 +32,36 @@
 
 typedef struct srv_pipeline srv_pipeline;
 
-/* Everything synthesis needs for one model. */
+/* After this long without a source frame the idle synthesis takes over (when there is one). */
+#define SRV_IDLE_AFTER_US 1000000u
+
+/* What the daemon knows of its source, copied once at start so that other threads never read the
+ * drv_source that the source thread reopens (names, fps and the scheme cannot change on a reopen:
+ * drv_source_reopen refuses another marker set; the controls can, see srv_pipeline_controls). */
+typedef struct srv_source_info {
+    char spec[SRV_PATH_LEN];
+    char scheme[32];
+    int count;
+    char **names;       /* count labels */
+    double fps;
+    unsigned caps;      /* DRV_CAP_* */
+    unsigned controls;  /* SRV_CTL_BIT()s accepted when opened */
+} srv_source_info;
+
+int srv_source_info_init(srv_source_info *si, const drv_source *src, const char *spec, char *err);
+void srv_source_info_fini(srv_source_info *si);
+
+/* Everything synthesis needs for one model: the model, its synthesis, the binding of source labels
+ * to its inputs, the generation it is streamed as, and every buffer a frame needs. */
 typedef struct srv_bundle {
     srv_gen *gen;       /* one reference */
     mdl_model *model;
-    mdl_synth *synth;
+    mdl_synth *synth;   /* the primary kind */
+    unsigned inputs;    /* MDL_INPUT_* bits of synth */
+    double clock_fps;   /* the rate of a clock-driven synth (or idle): the model's fps, or 30 */
+    int nm;             /* model markers */
+    int *map;           /* nm: the source marker feeding each model marker, or -1 */
+    mdl_synth *idle;    /* the idle synthesis (a clock-driven kind of the same model), or NULL */
     float *V;           /* nv x 3 */
     float *mk;          /* nm x 3, model marker order */
     uint8_t *mv;        /* nm */
@@ -42,16 +74,18 @@ typedef struct srv_ctl_result {
 } srv_ctl_result;
 
 /* Opens the model and binds it to the source's markers through the label map `labels` (labels.h;
- * NULL or "" binds by exact names). No marker bound is an error; map entries that cannot take
- * effect and unbound markers are logged as warnings. `id` becomes the generation number. */
-int srv_pipeline_load(const char *model_path, const char *labels, const drv_source *src,
-                      const char *spec, uint32_t id, srv_bundle *out, char *err);
+ * NULL or "" binds by exact names). For a kind driven by markers no marker bound is an error; map
+ * entries that cannot take effect and unbound markers are logged as warnings. A kind that reads no
+ * markers needs no binding. `id` becomes the generation number. */
+int srv_pipeline_load(const char *model_path, const char *labels, const srv_source_info *src,
+                      uint32_t id, srv_bundle *out, char *err);
 void srv_bundle_fini(srv_bundle *b);
 
-/* On success takes the source and the bundle (on failure the caller keeps both). record may be
- * NULL. */
-int srv_pipeline_create(drv_source *src, const char *spec, srv_bundle *b, srv_metrics *m, const char *record,
-                        void (*wake)(void *), void *wake_ud, srv_pipeline **out, char *err);
+/* On success takes the source, its description and the bundle (on failure the caller keeps all
+ * three). record may be NULL. */
+int srv_pipeline_create(drv_source *src, srv_source_info *si, srv_bundle *b, srv_metrics *m,
+                        const char *record, void (*wake)(void *), void *wake_ud,
+                        srv_pipeline **out, char *err);
 int srv_pipeline_start(srv_pipeline *p, char *err);
 /* Stops the threads, writes the recording (its error goes to err), keeps the object. */
 int srv_pipeline_stop(srv_pipeline *p, char *err);
@@ -76,10 +110,15 @@ int srv_pipeline_reload_done(srv_pipeline *p, int *ok, char *err);
 drv_state srv_pipeline_source_state(srv_pipeline *p);
 /* 1 while synthesis refuses every frame (its reason into why, n bytes), else 0. */
 int srv_pipeline_degraded(srv_pipeline *p, char *why, size_t n);
-const drv_source *srv_pipeline_source(srv_pipeline *p);
-/* The control kinds a source accepts, as SRV_CTL_BIT()s: pause and resume for DRV_CTL_PAUSE, seek
- * for DRV_CTL_SEEK, speed for DRV_CTL_SPEED (what the hello advertises). */
-unsigned srv_pipeline_source_controls(const drv_source *src);
+/* The source as copied at start (any thread). */
+const srv_source_info *srv_pipeline_source_info(srv_pipeline *p);
+/* The control kinds the source accepts now, as SRV_CTL_BIT()s (any thread). */
+unsigned srv_pipeline_controls(srv_pipeline *p);
+/* 1 while the idle synthesis is driving the output. */
+int srv_pipeline_idle(srv_pipeline *p);
+/* The control kinds of a source's DRV_CTL_* bits: pause and resume for DRV_CTL_PAUSE, seek for
+ * DRV_CTL_SEEK, speed for DRV_CTL_SPEED (what the hello advertises). */
+unsigned srv_controls_of_source(unsigned drv_controls);
 uint64_t srv_now_us(void);
 
 #endif

@@ -175,20 +175,18 @@ static int handle_message(srv_daemon *d, srv_session *s)
         n = srv_reply_pong(buf, &c, srv_now_us());
         return queue_reply(s, buf, n);
     default: {
-        const drv_source *src = srv_pipeline_source(d->pipe);
-        unsigned accepted = srv_pipeline_source_controls(src);
+        /* what the source takes now, from the pipeline's snapshot: the source itself belongs to
+         * the source thread, which rewrites it when it reopens a lost device */
+        unsigned accepted = srv_pipeline_controls(d->pipe);
+        const char *scheme = srv_pipeline_source_info(d->pipe)->scheme;
         if (!(accepted & SRV_CTL_BIT(c.kind))) {
-            char why[160], list[64] = "";
-            static const int offered[] = {SRV_CTL_PAUSE, SRV_CTL_RESUME, SRV_CTL_SEEK, SRV_CTL_SPEED};
-            for (size_t i = 0; i < sizeof offered / sizeof offered[0]; i++)
-                if (accepted & SRV_CTL_BIT(offered[i]))
-                    snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s",
-                             list[0] ? ", " : "", srv_control_name(offered[i]));
+            char why[160], list[64];
+            srv_controls_text(accepted, list, sizeof list);
             if (list[0])
-                snprintf(why, sizeof why, "the %s source takes no '%s' (it takes: %s)",
-                         src->ops->scheme, c.type, list);
+                snprintf(why, sizeof why, "the %s source takes no '%s' (it takes: %s)", scheme,
+                         c.type, list);
             else
-                snprintf(why, sizeof why, "the %s source takes no controls", src->ops->scheme);
+                snprintf(why, sizeof why, "the %s source takes no controls", scheme);
             return reply_error(d, s, "unsupported", why, &c);
         }
         if (srv_pipeline_control(d->pipe, s->tag, &c))
@@ -196,6 +194,54 @@ static int handle_message(srv_daemon *d, srv_session *s)
         return 0; /* the reply comes back from the source thread */
     }
     }
+}
+
+/* A client that is streaming and has not been written frames up to seq - 1 skipped them: they are
+ * superseded by frame seq (latest-frame-wins). Counted as soon as a newer frame exists, so that a
+ * client that never becomes writable (a stalled socket) is counted too, not only at its next
+ * write. */
+static void account_skips(srv_daemon *d, srv_session *s, uint64_t seq)
+{
+    if (s->stage != 2 || seq == 0 || s->accounted_seq == 0 || seq - 1 <= s->accounted_seq) {
+        if (s->stage == 2 && s->accounted_seq == 0)
+            s->accounted_seq = seq ? seq - 1 : 0; /* a new client owes nothing for earlier frames */
+        return;
+    }
+    uint64_t n = seq - 1 - s->accounted_seq;
+    s->accounted_seq = seq - 1;
+    s->skipped += n;
+    s->skip_pending = (uint32_t)(s->skip_pending + n > UINT32_MAX ? UINT32_MAX : s->skip_pending + n);
+    srv_metrics_count(&d->metrics.drops[SRV_DROP_CLIENT_SLOW], n);
+}
+
+size_t srv_stream_render_clients(const srv_daemon *d, char *buf, size_t cap)
+{
+    size_t at = 0;
+    char line[160];
+    static const char head[] =
+        "# HELP meshsteer_client_frames_total Frames written to each connected client.\n"
+        "# TYPE meshsteer_client_frames_total counter\n"
+        "# HELP meshsteer_client_skipped_frames_total Frames each connected client skipped because "
+        "a newer one replaced them before it could take them.\n"
+        "# TYPE meshsteer_client_skipped_frames_total counter\n";
+    if (buf && at + sizeof head - 1 < cap)
+        memcpy(buf + at, head, sizeof head - 1);
+    at += sizeof head - 1;
+    for (const srv_session *s = d->sessions; s; s = s->next) {
+        int w = snprintf(line, sizeof line,
+                         "meshsteer_client_frames_total{client=\"%llu\"} %llu\n"
+                         "meshsteer_client_skipped_frames_total{client=\"%llu\"} %llu\n",
+                         (unsigned long long)s->tag, (unsigned long long)s->frames,
+                         (unsigned long long)s->tag, (unsigned long long)s->skipped);
+        if (w <= 0)
+            continue;
+        if (buf && at + (size_t)w < cap)
+            memcpy(buf + at, line, (size_t)w);
+        at += (size_t)w;
+    }
+    if (buf && at < cap)
+        buf[at] = '\0';
+    return at;
 }
 
 static int write_frame_or_nothing(srv_daemon *d, srv_session *s, struct lws *wsi)
@@ -239,20 +285,19 @@ static int write_frame_or_nothing(srv_daemon *d, srv_session *s, struct lws *wsi
     } else if (f && f->seq > s->last_seq) {
         unsigned char *m = f->msg[s->encoding];
         size_t len = f->len[s->encoding];
-        uint64_t skipped = s->last_seq ? f->seq - s->last_seq - 1 : 0;
+        account_skips(d, s, f->seq);
         uint64_t now = srv_now_us();
-        srv_put_u32(m + SRV_FRAME_OFF_SKIPPED, (uint32_t)(skipped > UINT32_MAX ? UINT32_MAX : skipped));
+        srv_put_u32(m + SRV_FRAME_OFF_SKIPPED, s->skip_pending);
+        s->skip_pending = 0;
         srv_put_u64(m + SRV_FRAME_OFF_SEND, now);
         r = lws_write(wsi, m, len, LWS_WRITE_BINARY);
         if (r >= 0 && lws_partial_buffered(wsi))
             srv_metrics_count(&d->metrics.partial_writes, 1);
         s->last_seq = f->seq;
+        s->accounted_seq = f->seq;
         s->frames++;
-        s->skipped += skipped;
         srv_metrics_count(&d->metrics.frames_out, 1);
         srv_metrics_count(&d->metrics.bytes_out, len);
-        if (skipped)
-            srv_metrics_count(&d->metrics.drops[SRV_DROP_CLIENT_SLOW], skipped);
         srv_hist_observe(&d->metrics.latency, now > f->t_capture_us ? now - f->t_capture_us : 0);
         if (s->timeout_armed) {
             lws_set_timeout(wsi, NO_PENDING_TIMEOUT, 0);
@@ -279,6 +324,8 @@ static void wake_sessions(srv_daemon *d)
     srv_frame *f = srv_pipeline_latest(d->pipe);
     uint64_t now = srv_now_us();
     for (srv_session *s = d->sessions; s; s = s->next) {
+        if (f && f->gen == s->gen)
+            account_skips(d, s, f->seq);
         if (d->draining || (f && (f->seq > s->last_seq || f->gen != s->gen))) {
             lws_callback_on_writable(s->wsi);
             if (!s->timeout_armed && !d->draining) {

@@ -107,7 +107,13 @@ int16Box.addEventListener('change', () => {
 
 // ---- clock: map performance.now() (ms) to the server's CLOCK_MONOTONIC (us) with ping/pong,
 // keeping the sample with the smallest round trip
-let offsetMs = NaN, bestRtt = Infinity, pingSent = 0;
+let offsetMs = NaN, bestRtt = Infinity, pingSent = 0, pingOpen = false, pingBurst = 0;
+function ping() {
+  if (pingOpen && performance.now() - pingSent < 5000) return; // one ping in flight at a time
+  pingSent = performance.now();
+  pingOpen = true;
+  send({ type: 'ping' });
+}
 function serverNowMs() { return performance.now() + offsetMs; }
 
 // ---- the connection
@@ -130,7 +136,12 @@ function connect() {
     bestRtt = Infinity;
     setStatus('connected');
     if (stats.encoding !== 'float32') send({ type: 'encoding', encoding: stats.encoding });
-    const ping = () => { pingSent = performance.now(); send({ type: 'ping' }); };
+    // The offset is only as good as the shortest round trip seen (its error is at most rtt/2), and
+    // the first pings after a connect are slow (the page is still busy): eight pings one after the
+    // other (each sent when the previous pong arrives, so a pong always answers the last ping), then
+    // one every 2 s.
+    pingOpen = false;
+    pingBurst = 8;
     ping();
     pingTimer = setInterval(ping, 2000);
   };
@@ -171,7 +182,9 @@ function onText(msg) {
     topo = null; // the topology follows
   } else if (msg.type === 'pong') {
     const now = performance.now(), rtt = now - pingSent;
+    pingOpen = false;
     if (rtt < bestRtt) { bestRtt = rtt; offsetMs = msg.server_us / 1000 - (pingSent + now) / 2; }
+    if (pingBurst > 0 && --pingBurst > 0) ping();
   } else if (msg.type === 'error') {
     stats.errors++;
     stats.lastError = `${msg.code}: ${msg.message}`;

@@ -361,6 +361,7 @@ static int oni_open(drv_source *s, const char *arg, char *err)
     /* recordings pause and change speed; no seek: OpenNI2's seek can hang when the stream is not
      * running. Live cameras take no controls. */
     s->controls = o->playback ? DRV_CTL_PAUSE | DRV_CTL_SPEED : 0;
+    s->caps = o->playback ? 0 : DRV_CAP_USB_DEVICE;
     return 0;
 }
 
@@ -505,14 +506,14 @@ static int oni_read(drv_source *s, drv_frame *fr, int timeout_ms, char *err)
 /* Recordings: "pause" 1 holds the player (OpenNI2's manual mode, which releases a frame only
  * when oniWaitForAnyStream asks, and read does not ask while paused), 0 restores the speed;
  * "speed" S (0 .. 100, as the option; 0 = every frame as fast as read) applies at once, or on
- * resume when paused. drv_source_control passes only these two keys (s->controls). */
-static int oni_control(drv_source *s, const char *key, double value, char *err)
+ * resume when paused. drv_source_control passes only these two (s->controls). */
+static int oni_control(drv_source *s, unsigned ctl, double value, char *err)
 {
     char why[256];
     oni_src *o = s->impl;
     if (!o->playback)
         return drv__err(err, -ENOTSUP, "openni2 %s: a live camera takes no controls", o->uri);
-    if (!strcmp(key, "pause")) {
+    if (ctl == DRV_CTL_PAUSE) {
         if (value != 0 && value != 1)
             return drv__err(err, -EINVAL, "openni2 %s: pause must be 0 or 1", o->uri);
         if ((value != 0) == o->paused)
@@ -523,7 +524,7 @@ static int oni_control(drv_source *s, const char *key, double value, char *err)
         o->paused = value != 0;
         return 0;
     }
-    if (!strcmp(key, "speed")) { /* the range: drv_source_control */
+    if (ctl == DRV_CTL_SPEED) { /* the range: drv_source_control */
         if (!o->paused && set_speed(o, value))
             return drv__err(err, -EIO, "openni2 %s: cannot set the playback speed to %g: %s",
                             o->uri, value, oni_why(why));
@@ -531,7 +532,7 @@ static int oni_control(drv_source *s, const char *key, double value, char *err)
         return 0;
     }
     return drv__err(err, -ENOTSUP, "openni2 %s: no control '%s' (recordings take pause, speed)",
-                    o->uri, key);
+                    o->uri, drv_control_name(ctl));
 }
 
 static void oni_stop(drv_source *s)

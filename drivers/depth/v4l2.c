@@ -576,6 +576,7 @@ int drv_v4l2_source_open_sys(drv_source *s, const char *arg, const drv_v4l2_sys 
     s->count = DRV_DEPTH_NLABELS;
     s->names = (const char **)drv_depth_label_names;
     s->fps = 30;
+    s->caps = DRV_CAP_USB_DEVICE; /* a Kinect v1 through gspca_kinect */
     return 0;
 }
 

@@ -238,7 +238,7 @@ static void daemon_e2e(const char *meshsteerd, const char *dump, char *err)
     mdl_train_opts o;
     mdl_train_opts_default(&o);
     mdl_model *m;
-    ASSERT_OK(mdl_model_train(seq, frames, 22, rig, NULL, &o, &m, err), err);
+    ASSERT_OK(mdl_steer_train(seq, frames, 22, rig, NULL, &o, &m, err), err);
     char model[4400];
     snprintf(model, sizeof model, "%s/samba-depth.msm", stage);
     ASSERT_OK(mdl_model_save(m, model, err), err);
@@ -426,8 +426,8 @@ int main(int argc, char **argv)
         ASSERT_INT_EQ(s->count, DRV_DEPTH_NLABELS);
         /* a live camera takes no controls */
         ASSERT_INT_EQ(s->controls, 0);
-        ASSERT_INT_EQ(drv_source_control(s, "pause", 1, err), -ENOTSUP);
-        ASSERT_INT_EQ(drv_source_control(s, "speed", 2, err), -ENOTSUP);
+        ASSERT_INT_EQ(drv_source_control(s, DRV_CTL_PAUSE, 1, err), -ENOTSUP);
+        ASSERT_INT_EQ(drv_source_control(s, DRV_CTL_SPEED, 2, err), -ENOTSUP);
         ASSERT_OK(drv_source_start(s, err), err);
         float xyz[DRV_DEPTH_NLABELS * 3];
         uint8_t valid[DRV_DEPTH_NLABELS];
@@ -592,10 +592,10 @@ int main(int argc, char **argv)
         /* controls of a recording: pause and speed, no seek (OpenNI2's seek can hang) */
         ASSERT_OK(drv_source_open(pspec, &s2, err), err);
         ASSERT_INT_EQ(s2->controls, DRV_CTL_PAUSE | DRV_CTL_SPEED);
-        ASSERT_INT_EQ(drv_source_control(s2, "seek", 0, err), -ENOTSUP);
-        ASSERT_INT_EQ(drv_source_control(s2, "loop", 1, err), -ENOTSUP);
-        ASSERT_INT_EQ(drv_source_control(s2, "speed", 101, err), -ERANGE);
-        ASSERT_INT_EQ(drv_source_control(s2, "pause", 2, err), -EINVAL);
+        ASSERT_INT_EQ(drv_source_control(s2, DRV_CTL_SEEK, 0, err), -ENOTSUP);
+        ASSERT_INT_EQ(drv_source_control(s2, DRV_CTL_LOOP, 1, err), -ENOTSUP);
+        ASSERT_INT_EQ(drv_source_control(s2, DRV_CTL_SPEED, 101, err), -ERANGE);
+        ASSERT_INT_EQ(drv_source_control(s2, DRV_CTL_PAUSE, 2, err), -EINVAL);
         ASSERT_OK(drv_source_start(s2, err), err);
         /* a pause longer than the rest of the recording holds its place: after the resume the
          * frames continue to the end (a player left running would have reached it unread, and
@@ -611,14 +611,14 @@ int main(int argc, char **argv)
                 break;
             ASSERT_OK(r, err);
             if (++back == 4) {
-                ASSERT_OK(drv_source_control(s2, "pause", 1, err), err);
+                ASSERT_OK(drv_source_control(s2, DRV_CTL_PAUSE, 1, err), err);
                 uint64_t t_pause = now_us();
                 while (now_us() - t_pause < (uint64_t)(1e6 * nrec / 30.0) + 300000) {
                     r = drv_source_read(s2, &fr, 50, err);
                     ASSERT(r == DRV_ETIMEOUT || r == 0); /* one frame may be on its way */
                     during += r == 0;
                 }
-                ASSERT_OK(drv_source_control(s2, "pause", 0, err), err);
+                ASSERT_OK(drv_source_control(s2, DRV_CTL_PAUSE, 0, err), err);
             }
         }
         printf("pause: %d of %d frames played around a %.2f s pause (%d while paused)\n", back + during,
@@ -630,7 +630,7 @@ int main(int argc, char **argv)
         /* speed 3 (set on the running source) plays the recording in about a third of its time */
         ASSERT_OK(drv_source_open(pspec, &s2, err), err);
         ASSERT_OK(drv_source_start(s2, err), err);
-        ASSERT_OK(drv_source_control(s2, "speed", 3, err), err);
+        ASSERT_OK(drv_source_control(s2, DRV_CTL_SPEED, 3, err), err);
         back = 0;
         for (int it = 0; it < 100; it++) {
             drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};

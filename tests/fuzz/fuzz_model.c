@@ -1,6 +1,7 @@
-/* fuzz_model.c - fuzz target for the model file loader (model/modelfile.c). Whatever loads must be
- * safe to synthesise from: a loaded model is driven through one frame of synthesis with its rig
- * vertices' rest positions as markers, and every output coordinate must be finite. */
+/* fuzz_model.c - fuzz target for the model file loader (model/formats/modelfile.c, versions 1 and 2,
+ * and every kind's chunk). Whatever loads must be safe to synthesise from: every kind of a loaded
+ * model is driven through one frame of synthesis (marker kinds with their rig vertices' rest
+ * positions as markers, clock kinds at t = 0.5 s). */
 #include "model.h"
 
 #include <math.h>
@@ -21,15 +22,18 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     mdl_model_info info;
     mdl_model_get_info(m, &info);
-    mdl_synth *s = NULL;
-    float *mk = calloc((size_t)info.nmarkers * 3, sizeof *mk);
+    float *mk = calloc((size_t)info.nmarkers * 3 + 3, sizeof *mk);
     float *V = calloc((size_t)info.nv * 3, sizeof *V);
-    if (mk && V && mdl_synth_create(m, &s, err) == 0) {
-        for (int j = 0; j < info.nmarkers; j++)
-            memcpy(mk + 3 * j, info.rest + 3 * info.markers[j].vertex, 3 * sizeof(float));
-        mdl_synth_frame(s, mk, NULL, V, NULL);
+    for (int j = 0; mk && j < info.nmarkers; j++)
+        memcpy(mk + 3 * j, info.rest + 3 * info.markers[j].vertex, 3 * sizeof(float));
+    for (int k = 0; k < info.nkinds; k++) {
+        mdl_synth *s = NULL;
+        if (mk && V && mdl_synth_create(m, info.kinds[k], &s, err) == 0) {
+            mdl_synth_input in = {.markers = mk, .t = 0.5};
+            mdl_synth_frame(s, &in, V, NULL);
+        }
+        mdl_synth_destroy(s);
     }
-    mdl_synth_destroy(s);
     free(mk);
     free(V);
     char *js = mdl_model_report_json(m);

@@ -1,6 +1,6 @@
 /* make_model_seed.c - writes a small model (the test tube of tests/model/tube.h) as the seed of
  * fuzz_model, so that the seed always matches the current file version. Usage: make_model_seed OUT */
-#include "../model/tube.h"
+#include "model/tube.h"
 #include "model.h"
 
 #include <stdio.h>
@@ -22,7 +22,7 @@ int main(int argc, char **argv)
     mdl_train_opts_default(&o);
     o.name = "fuzz-seed";
     mdl_model *m;
-    int rc = mdl_model_train(s, frames, 12, rig, NULL, &o, &m, err);
+    int rc = mdl_steer_train(s, frames, 12, rig, NULL, &o, &m, err);
     if (!rc)
         rc = mdl_model_save(m, argv[1], err);
     if (rc)

@@ -245,6 +245,24 @@ double harness_metric(const harness *h, const char *sample)
     return v;
 }
 
+int harness_metric_family(const harness *h, const char *prefix, double *v, int max)
+{
+    char *body;
+    if (harness_get(h, "/metrics", &body) != 200) {
+        free(body);
+        return -1;
+    }
+    int n = 0;
+    size_t np = strlen(prefix);
+    for (char *line = strtok(body, "\n"); line; line = strtok(NULL, "\n")) {
+        char *sp = strrchr(line, ' ');
+        if (!strncmp(line, prefix, np) && line[np] == '{' && sp && n < max)
+            v[n++] = atof(sp + 1);
+    }
+    free(body);
+    return n;
+}
+
 int harness_stop(harness *h, int sig, int timeout_ms)
 {
     kill(h->pid, sig);

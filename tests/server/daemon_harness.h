@@ -31,6 +31,9 @@ int harness_get(const harness *h, const char *path, char **body);
 int harness_raw(const harness *h, const char *request, size_t n, char **answer);
 /* The value of a /metrics sample (name with labels, exactly as printed); -1 if absent. */
 double harness_metric(const harness *h, const char *sample);
+/* The values of every sample of a labelled metric family ("name{...} value"), in /metrics order;
+ * returns how many (at most max), or -1. */
+int harness_metric_family(const harness *h, const char *prefix, double *v, int max);
 /* Sends sig and waits up to timeout_ms for exit; returns the exit status, or -1 on timeout. */
 int harness_stop(harness *h, int sig, int timeout_ms);
 void harness_copy(const char *from, const char *to);

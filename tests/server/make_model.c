@@ -35,7 +35,7 @@ int main(int argc, char **argv)
     mdl_train_opts_default(&o);
     o.name = "example";
     o.clusters = 6; /* fixed: quicker than the automatic choice, and enough parts to colour */
-    if (mdl_model_train(seq, idx, frames, rig, NULL, &o, &m, err)) {
+    if (mdl_steer_train(seq, idx, frames, rig, NULL, &o, &m, err)) {
         fprintf(stderr, "make_model: train: %s\n", err);
         return 1;
     }

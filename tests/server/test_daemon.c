@@ -54,6 +54,25 @@
 static const char *meshsteerd;
 static harness H;
 
+/* Under ASan or TSan (MESHSTEER_SANITIZED=1, scripts/run.sh) the daemon runs several times
+ * slower: the timing checks then only ask that frames keep coming (a third of the rate, latency
+ * under 5 s), while every functional check stays as it is. */
+static int sanitized;
+
+/* rate must be within tol of want; sanitized, at least a third of want */
+#define ASSERT_RATE(rate, want, tol)                                                               \
+    do {                                                                                           \
+        if (sanitized)                                                                             \
+            ASSERT((rate) >= (want) / 3.0);                                                        \
+        else                                                                                       \
+            ASSERT_NEAR(rate, want, tol);                                                          \
+    } while (0)
+
+static double latency_bound_us(void)
+{
+    return sanitized ? 5e6 : 5e5;
+}
+
 typedef struct want {
     wsc *c;
     uint64_t frames;
@@ -82,7 +101,7 @@ static int enough(void *ud)
 static void run_until(struct lws_context *ctx, wsc *c, uint64_t frames, int texts, int ms)
 {
     want w = {c, frames, texts, 0, 0, -1};
-    if (!wsc_run(ctx, ms, enough, &w)) {
+    if (!wsc_run(ctx, sanitized ? 4 * ms : ms, enough, &w)) {
         fprintf(stderr, "timeout: %llu/%llu frames, %d/%d texts, closed %d (%s)\n",
                 (unsigned long long)c->total_frames, (unsigned long long)frames, c->ntexts, texts,
                 c->closed, c->error);
@@ -233,12 +252,12 @@ static void scenario_stream(void)
             ASSERT(f->t_capture > A->frames[i - 1].t_capture);
         }
         ASSERT(f->t_capture <= f->t_synth && f->t_synth <= f->t_send && f->t_send <= f->t_recv);
-        ASSERT_NEAR_I((double)(f->t_recv - f->t_capture), 0, 500000, i); /* under 0.5 s */
+        ASSERT_NEAR_I((double)(f->t_recv - f->t_capture), 0, latency_bound_us(), i); /* under 0.5 s */
     }
     double span = (double)(A->frames[A->nframes - 1].t_capture - A->frames[0].t_capture) * 1e-6;
     double rate = (double)(A->frames[A->nframes - 1].seq - A->frames[0].seq) / span;
     printf("stream: %d frames at %.1f Hz (source 30 Hz), %d vertices\n", A->nframes, rate, A->nv);
-    ASSERT_NEAR(rate, 30, 3);
+    ASSERT_RATE(rate, 30, 3);
 
     /* both encodings decode to the same mesh within the stated bound */
     double worst = 0;
@@ -393,6 +412,20 @@ static void scenario_slow(void)
     struct lws_context *ctx = wsc_context();
     wsc *A = wsc_connect(ctx, H.port, NULL, 0);
     run_until(ctx, A, 10, 0, 15000);
+    /* one client that keeps up: the daemon's count of what it skipped is what its frames say */
+    {
+        run_until(ctx, A, A->total_frames + 60, 0, 5000);
+        uint64_t seen = 0;
+        for (int i = 0; i < A->nframes; i++)
+            seen += (uint64_t)A->frames[i].skipped;
+        double per[8];
+        ASSERT_INT_EQ(harness_metric_family(&H, "meshsteer_client_skipped_frames_total", per, 8), 1);
+        printf("slow: one client keeping up skipped %llu frames by its headers, %.0f by /metrics\n",
+               (unsigned long long)seen, per[0]);
+        ASSERT(seen <= (sanitized ? 30u : 2u));
+        ASSERT(per[0] >= (double)seen);
+        ASSERT(per[0] <= (double)seen + 1); /* at most the one superseded since its last write */
+    }
     int fds[4];
     for (int i = 0; i < 4; i++)
         fds[i] = stalled_client(H.port);
@@ -410,10 +443,22 @@ static void scenario_slow(void)
     printf("slow: fast client %.1f frames/s while 4 clients never read; daemon RSS %ld -> %ld kB; "
            "fast client skipped %llu; daemon counted %.0f skipped frames in all\n",
            240 / secs, rss0, rss1, (unsigned long long)skipped, drops);
-    ASSERT(240 / secs > 27);        /* the fast client keeps the source's 30 Hz */
-    ASSERT(skipped <= 2);           /* and misses nothing */
-    ASSERT(rss1 - rss0 < 8 * 1024); /* bounded: < 8 MB growth over 240 frames of 4 stalled clients */
-    ASSERT(drops >= 0);
+    ASSERT(240 / secs > (sanitized ? 10 : 27)); /* the fast client keeps the source's 30 Hz */
+    ASSERT(skipped <= (sanitized ? 30u : 2u)); /* and misses (nearly) nothing */
+    ASSERT(rss1 - rss0 < (sanitized ? 32 : 8) * 1024); /* bounded: < 8 MB growth over 240 frames of 4 stalled clients (ASan keeps freed memory in quarantine) */
+    /* each stalled client is counted as skipping (nearly) every frame of the 8 s: >= 200 of 240 */
+    double per[8];
+    int nper = harness_metric_family(&H, "meshsteer_client_skipped_frames_total", per, 8);
+    ASSERT_INT_EQ(nper, 5);
+    int stalled_counted = 0;
+    for (int i = 0; i < nper; i++)
+        stalled_counted += per[i] >= 200;
+    printf("slow: per-client skipped frames:");
+    for (int i = 0; i < nper; i++)
+        printf(" %.0f", per[i]);
+    printf("\n");
+    ASSERT_INT_EQ(stalled_counted, 4);
+    ASSERT(drops >= 4 * 200.0);
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients"), 5);
     for (int i = 0; i < 4; i++)
         close(fds[i]);
@@ -591,7 +636,7 @@ static void scenario_idle(void)
     double secs = (double)(wsc_now_us() - t0) * 1e-6;
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_closed_idle_total"), 1);
     printf("idle: stalled client closed after %.1f s (timeout 2 s)\n", secs);
-    ASSERT(secs >= 2.0 && secs < 6.0);
+    ASSERT(secs >= 2.0 && secs < (sanitized ? 20.0 : 6.0));
     ASSERT(harness_log_has(&H, "accepted no frame for 2 s"));
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients"), 1);
     /* the reading client was never idle and keeps streaming */
@@ -698,14 +743,47 @@ static void scenario_config(void)
     ASSERT(!c->connected && !no->connected);
     snprintf(H.token, sizeof H.token, "sesame"); /* /metrics needs the token too */
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_clients_rejected_total"), 2);
+    printf("config: file settings in effect (int16, token), --max-clients overrode the file\n");
+
+    /* SIGHUP re-reads the file: a new token takes effect; a broken file keeps the old settings */
+    wsc_free(c);
+    wsc_free(no);
+    wsc_close(a);
+    wsc_close(b);
+    want wa0 = {a, 0, 0, 0, 1, -1}, wb0 = {b, 0, 0, 0, 1, -1};
+    wsc_run(ctx, 3000, enough, &wa0);
+    wsc_run(ctx, 3000, enough, &wb0);
+    snprintf(text, sizeof text,
+             "model = %s/model.msm\nsource = \"replay:%s/trot.csv?loop=1\"\nlisten = 127.0.0.1:0\n"
+             "token = open-sesame\nencoding = int16\n", H.dir, H.dir);
+    write_file(conf, text);
+    snprintf(H.token, sizeof H.token, "open-sesame"); /* /metrics answers it once reloaded */
+    kill(H.pid, SIGHUP);
+    for (int t = 0; t < 500 && harness_metric(&H, "meshsteer_reloads_total") < 1; t++)
+        usleep(10000);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_total"), 1);
+    wsc *newtok = wsc_connect(ctx, H.port, "token=open-sesame", 0);
+    run_until(ctx, newtok, 3, 0, 10000);
+    wsc *oldtok = wsc_connect(ctx, H.port, "token=sesame", 0);
+    want wo = {oldtok, 0, 0, 0, 1, -1};
+    ASSERT(wsc_run(ctx, 5000, enough, &wo));
+    ASSERT(!oldtok->connected);
+    write_file(conf, "model = m.msm\nmax_clients = lots\n");
+    kill(H.pid, SIGHUP);
+    for (int t = 0; t < 500 && harness_metric(&H, "meshsteer_reloads_total") < 2; t++)
+        usleep(10000);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_total"), 2); /* the model reloads still */
+    wsc *again = wsc_connect(ctx, H.port, "token=open-sesame", 0);
+    run_until(ctx, again, 3, 0, 10000);
+    printf("config: SIGHUP took the file's new token; a broken file left the settings as they were\n");
     H.token[0] = '\0';
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
     lws_context_destroy(ctx);
     wsc_free(a);
     wsc_free(b);
-    wsc_free(c);
-    wsc_free(no);
-    printf("config: file settings in effect (int16, token), --max-clients overrode the file\n");
+    wsc_free(newtok);
+    wsc_free(oldtok);
+    wsc_free(again);
 
     /* flags override: a file without model is completed by --model */
     char partial[1200], tmp[1300];
@@ -1013,14 +1091,14 @@ static void scenario_horse(const char *meshsteer)
             ASSERT(f->t_capture > A->frames[i - 1].t_capture);
         }
         ASSERT(f->t_capture <= f->t_synth && f->t_synth <= f->t_send && f->t_send <= f->t_recv);
-        ASSERT_NEAR_I((double)(f->t_recv - f->t_capture), 0, 500000, i);
+        ASSERT_NEAR_I((double)(f->t_recv - f->t_capture), 0, latency_bound_us(), i);
     }
     const wsc_frame *first = &A->frames[0], *last = &A->frames[A->nframes - 1];
     double span = (double)(last->t_capture - first->t_capture) * 1e-6;
     double rate = (double)(last->seq - first->seq) / span;
     printf("horse: %d frames at %.1f Hz (source 60 Hz), %d vertices, %d faces\n", A->nframes, rate,
            A->nv, A->nf);
-    ASSERT_NEAR(rate, 60, 6);
+    ASSERT_RATE(rate, 60, 6);
 
     /* each frame against the ground truth of the marker frame it came from (found by its
      * markers, which the daemon passes through unchanged) */
@@ -1316,6 +1394,7 @@ static void kill_daemon(void)
 
 int main(int argc, char **argv)
 {
+    sanitized = getenv("MESHSTEER_SANITIZED") && getenv("MESHSTEER_SANITIZED")[0] == '1';
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
                         "stream|slow|record|limits|origin|idle|config|labels|listen|invalid|http|horse "

@@ -57,16 +57,16 @@ int main(void)
                            .topology = 0x1234abcdULL, .nmarkers = 3, .markers = markers,
                            .nclusters = 3, .part = part, .fps = 30,
                            .bbox_min = {0, 0, 0}, .bbox_max = {1, 2, 3}};
-    int map[3] = {2, -1, 0};
+    const uint8_t bound[3] = {1, 0, 1}; /* a -> source 2, b unbound, c -> source 0 */
     const char *names[3] = {"C", "X", "A"};
     const char *lookup[3] = {"A", "cam_b", "C"}; /* b looks up cam_b, which the source lacks */
     srv_source_desc src = {"replay:x.csv", "replay", 60, 3, names,
                            SRV_CTL_BIT(SRV_CTL_PAUSE) | SRV_CTL_BIT(SRV_CTL_RESUME) |
                                SRV_CTL_BIT(SRV_CTL_SPEED),
-                           lookup};
+                           lookup, bound, 0};
     char err[512];
     srv_gen *g = NULL;
-    ASSERT_OK(srv_gen_create(&info, map, &src, 7, &g, err), err);
+    ASSERT_OK(srv_gen_create(&info, &src, 7, &g, err), err);
 
     /* hello: JSON text with the documented fields */
     ASSERT(strstr((char *)g->hello, "\"type\":\"hello\""));
@@ -81,12 +81,12 @@ int main(void)
     {
         /* a file's label that is not UTF-8 (Latin-1 "Kn\xe9") reaches the hello, a text frame,
          * as valid UTF-8 ("Kn?") */
-        srv_source_desc latin = {"replay:\xe9.c3d", "replay", 60, 3, names, 0, NULL};
+        srv_source_desc latin = {"replay:\xe9.c3d", "replay", 60, 3, names, 0, NULL, bound, 0};
         mdl_rig_marker m2[3] = {{"Kn\xe9", "", 0}, {"b", "", 1}, {"c", "C", 4}};
         mdl_model_info i2 = info;
         i2.markers = m2;
         srv_gen *g3 = NULL;
-        ASSERT_OK(srv_gen_create(&i2, map, &latin, 9, &g3, err), err);
+        ASSERT_OK(srv_gen_create(&i2, &latin, 9, &g3, err), err);
         ASSERT(srv__utf8_valid((char *)g3->hello, g3->hello_len));
         ASSERT(strstr((char *)g3->hello, "\"name\":\"Kn?\""));
         ASSERT(strstr((char *)g3->hello, "\"spec\":\"replay:?.c3d\""));
@@ -94,9 +94,9 @@ int main(void)
     }
     {
         /* no label map (live = the marker's own label) and a source without controls */
-        srv_source_desc plain = {"openni2:", "openni2", 30, 3, names, 0, NULL};
+        srv_source_desc plain = {"openni2:", "openni2", 30, 3, names, 0, NULL, bound, 0};
         srv_gen *g2 = NULL;
-        ASSERT_OK(srv_gen_create(&info, map, &plain, 8, &g2, err), err);
+        ASSERT_OK(srv_gen_create(&info, &plain, 8, &g2, err), err);
         ASSERT(strstr((char *)g2->hello, "{\"name\":\"b\",\"source\":\"b\",\"live\":\"b\",\"bound\":false}"));
         ASSERT(strstr((char *)g2->hello, "{\"name\":\"c\",\"source\":\"C\",\"live\":\"C\",\"bound\":true}"));
         ASSERT(strstr((char *)g2->hello, "\"controls\":[]"));
@@ -195,10 +195,10 @@ int main(void)
     /* invalid input is refused */
     int badpart[5] = {0, 0, 1, 3, 0};
     info.part = badpart;
-    ASSERT(srv_gen_create(&info, map, &src, 8, &g, err) == -EINVAL);
+    ASSERT(srv_gen_create(&info, &src, 8, &g, err) == -EINVAL);
     ASSERT(strstr(err, "vertex 3"));
     info.nv = 0;
-    ASSERT(srv_gen_create(&info, map, &src, 8, &g, err) < 0);
+    ASSERT(srv_gen_create(&info, &src, 8, &g, err) < 0);
 
     ASSERT_INT_EQ(srv_encoding_parse("int16"), SRV_ENC_INT16);
     ASSERT_INT_EQ(srv_encoding_parse("float64"), -1);

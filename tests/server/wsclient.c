@@ -143,6 +143,10 @@ static int callback(struct lws *wsi, enum lws_callback_reasons reason, void *use
         return 0;
     }
     case LWS_CALLBACK_CLIENT_WRITEABLE:
+        if (c->want_close) {
+            lws_close_reason(wsi, LWS_CLOSE_STATUS_NORMAL, NULL, 0);
+            return -1;
+        }
         if (c->nout) {
             size_t n = c->out_len[0];
             int binary = c->out_bin[0];
@@ -255,6 +259,13 @@ int wsc_run(struct lws_context *ctx, int timeout_ms, int (*pred)(void *), void *
     while (!(pred && pred(ud)) && wsc_now_us() < end)
         lws_service(ctx, 20);
     return pred ? pred(ud) : 1;
+}
+
+void wsc_close(wsc *c)
+{
+    c->want_close = 1;
+    if (c->wsi && c->connected)
+        lws_callback_on_writable(c->wsi);
 }
 
 void wsc_free(wsc *c)

@@ -41,6 +41,7 @@ typedef struct wsc {
     unsigned char *rx;
     size_t rx_len, rx_cap;
     int protocol_errors;   /* malformed binary messages */
+    int want_close;        /* wsc_close asked for a normal close */
     char error[256];
 } wsc;
 
@@ -54,6 +55,8 @@ void wsc_send(wsc *c, const char *text);
 void wsc_send_binary(wsc *c, const void *data, size_t len);
 /* Services the context until pred(ud) is true or timeout_ms passes; returns pred's last value. */
 int wsc_run(struct lws_context *ctx, int timeout_ms, int (*pred)(void *), void *ud);
+/* Closes the connection normally (1000) at the next service; closed is set once it is gone. */
+void wsc_close(wsc *c);
 void wsc_free(wsc *c);
 uint64_t wsc_now_us(void);
 

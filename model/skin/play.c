@@ -1,0 +1,140 @@
+/* play.c - the skin kind's synthesis (MDL_INPUT_CLOCK): the fitted bone animation, looping at the
+ * example's fps, skinned by linear blending (Le & Deng 2012's model, ssdr.h (LBS)):
+ *   v_i(t) = sum_s w_is (R_b(t) p_i + t_b(t)),   b = bone of slot s,
+ * with R_b(t), t_b(t) between fitted frames a = floor(t fps) mod n and a + 1 (mod n, so the loop
+ * closes) by normalised quaternion lerp and linear translation. This is what the daemon's idle
+ * source plays until the variations of Zheng 2013 exist. Per frame: no allocation, float. */
+#include "skin/skin_internal.h"
+#include "kind.h"
+#include "core/rigid.h"
+#include "core/util.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct skin_play {
+    int nv, nb, K, nframes;
+    double fps;
+    float *rest;   /* nv x 3 */
+    int *bone;     /* nv x K */
+    float *w;      /* nv x K */
+    float *q;      /* nframes x nb x 4 (w, x, y, z) */
+    float *tr;     /* nframes x nb x 3 */
+    float *M;      /* nb x 12 scratch: the blended transforms of the current time */
+} skin_play;
+
+void mdl__skin_synth_destroy(void *state)
+{
+    skin_play *p = state;
+    if (!p)
+        return;
+    free(p->rest);
+    free(p->bone);
+    free(p->w);
+    free(p->q);
+    free(p->tr);
+    free(p->M);
+    free(p);
+}
+
+int mdl__skin_synth_create(const mdl_model *m, const void *impl, void **state, char *err)
+{
+    const struct mdl_skin *k = impl;
+    *state = NULL;
+    skin_play *p = mdl__calloc(1, sizeof *p);
+    if (!p)
+        return mdl__err(err, -ENOMEM, "skin synthesis: out of memory");
+    p->nv = k->nv;
+    p->nb = k->nb;
+    p->K = k->K;
+    p->nframes = k->nframes;
+    p->fps = m->fps > 0 ? m->fps : 30;
+    size_t nk = (size_t)k->nv * k->K, nt = (size_t)k->nframes * k->nb;
+    p->rest = mdl__calloc(3 * (size_t)k->nv, sizeof *p->rest);
+    p->bone = mdl__calloc(nk, sizeof *p->bone);
+    p->w = mdl__calloc(nk, sizeof *p->w);
+    p->q = mdl__calloc(4 * nt, sizeof *p->q);
+    p->tr = mdl__calloc(3 * nt, sizeof *p->tr);
+    p->M = mdl__calloc(12 * (size_t)k->nb, sizeof *p->M);
+    if (!p->rest || !p->bone || !p->w || !p->q || !p->tr || !p->M) {
+        mdl__skin_synth_destroy(p);
+        return mdl__err(err, -ENOMEM, "skin synthesis: out of memory");
+    }
+    memcpy(p->rest, m->rest, 3 * (size_t)k->nv * sizeof *p->rest);
+    memcpy(p->bone, k->bone, nk * sizeof *p->bone);
+    for (size_t i = 0; i < nk; i++)
+        p->w[i] = (float)k->w[i];
+    for (size_t f = 0; f < nt; f++) {
+        double q[4];
+        mdl__mat_to_quat(k->T + 12 * f, q);
+        double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+        for (int c = 0; c < 4; c++)
+            p->q[4 * f + c] = (float)(q[c] / n);
+        for (int c = 0; c < 3; c++)
+            p->tr[3 * f + c] = (float)k->T[12 * f + 9 + c];
+    }
+    *state = p;
+    return 0;
+}
+
+void mdl__skin_synth_reset(void *state)
+{
+    (void)state; /* a clock-driven kind keeps no history */
+}
+
+int mdl__skin_synth_frame(void *state, const mdl_synth_input *in, float *V, mdl_synth_info *info)
+{
+    skin_play *p = state;
+    if (info)
+        memset(info, 0, sizeof *info);
+    if (!in || !isfinite(in->t))
+        return -EINVAL;
+    double f = fmod(in->t * p->fps, (double)p->nframes);
+    if (f < 0)
+        f += p->nframes;
+    int a = (int)f;
+    if (a >= p->nframes)
+        a = p->nframes - 1;
+    int b = (a + 1) % p->nframes;
+    float al = (float)(f - a);
+    for (int j = 0; j < p->nb; j++) {
+        const float *qa = p->q + 4 * ((size_t)a * p->nb + j), *qb = p->q + 4 * ((size_t)b * p->nb + j);
+        const float *ta = p->tr + 3 * ((size_t)a * p->nb + j), *tb = p->tr + 3 * ((size_t)b * p->nb + j);
+        float sg = qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3] < 0 ? -1.f : 1.f;
+        float q[4], n = 0;
+        for (int c = 0; c < 4; c++) {
+            q[c] = (1 - al) * qa[c] + al * sg * qb[c];
+            n += q[c] * q[c];
+        }
+        n = 1 / sqrtf(n);
+        float w = q[0] * n, x = q[1] * n, y = q[2] * n, z = q[3] * n;
+        float *M = p->M + 12 * (size_t)j;
+        M[0] = 1 - 2 * (y * y + z * z);
+        M[1] = 2 * (x * y - w * z);
+        M[2] = 2 * (x * z + w * y);
+        M[3] = 2 * (x * y + w * z);
+        M[4] = 1 - 2 * (x * x + z * z);
+        M[5] = 2 * (y * z - w * x);
+        M[6] = 2 * (x * z - w * y);
+        M[7] = 2 * (y * z + w * x);
+        M[8] = 1 - 2 * (x * x + y * y);
+        for (int c = 0; c < 3; c++)
+            M[9 + c] = (1 - al) * ta[c] + al * tb[c];
+    }
+    for (int i = 0; i < p->nv; i++) {
+        const float *u = p->rest + 3 * (size_t)i;
+        float o[3] = {0, 0, 0};
+        for (int s = 0; s < p->K; s++) {
+            float w = p->w[(size_t)p->K * i + s];
+            if (w == 0)
+                continue;
+            const float *M = p->M + 12 * (size_t)p->bone[(size_t)p->K * i + s];
+            for (int c = 0; c < 3; c++)
+                o[c] += w * (M[3 * c] * u[0] + M[3 * c + 1] * u[1] + M[3 * c + 2] * u[2] + M[9 + c]);
+        }
+        memcpy(V + 3 * (size_t)i, o, sizeof o);
+    }
+    return 0;
+}

@@ -1,0 +1,77 @@
+/* test_poisson.c - eq. 3-4 (model/harmonic/poisson.c) and the whole deformer (deform.c):
+ *   - Poisson of the unchanged mesh (every R_t = I) returns it (1e-6 m);
+ *   - a rigid rotation of all constraints rotates the whole mesh rigidly (1e-6 m): the harmonic
+ *     field is that rotation everywhere, and so is every triangle's;
+ *   - the deformer allocates nothing per frame (mallinfo2, plain build). */
+#include "harmonic/harmonic_internal.h"
+#include "core/laplacian.h"
+#include "core/rigid.h"
+#include "test.h"
+#include "htube.h"
+
+#include <malloc.h>
+
+int main(void)
+{
+    mdl_mesh *m = htube_create(25, 10);
+    int nv = m->nv, nf = m->nf;
+    /* bend it a little so it is not flat along any axis */
+    for (int v = 0; v < nv; v++)
+        m->V[3 * v + 2] += 0.2f * m->V[3 * v] * m->V[3 * v];
+    double *w = calloc(3 * (size_t)nf, sizeof *w), *Rt = calloc(9 * (size_t)nf, sizeof *Rt);
+    double *X = calloc(3 * (size_t)nv, sizeof *X);
+    mdl__cot_weights(m->V, m->F, nf, w);
+    char err[MDL_ERR_LEN] = "";
+    mdl__poisson p;
+    ASSERT_OK(mdl__poisson_precompute(&p, m->V, m->F, nf, nv, w, err), err);
+    ASSERT_INT_EQ(p.nanchor, 1);
+    for (int t = 0; t < nf; t++)
+        Rt[9 * t] = Rt[9 * t + 4] = Rt[9 * t + 8] = 1;
+    ASSERT_OK(mdl__poisson_solve(&p, Rt, X), "solve");
+    for (int i = 0; i < 3 * nv; i++)
+        ASSERT_NEAR_I(X[i], m->V[i], 1e-6, i);
+    mdl__poisson_fini(&p);
+
+    /* the deformer with 40 automatic correspondences, all rotated by one R */
+    struct mdl_harmonic *h = calloc(1, sizeof *h);
+    h->nv = nv;
+    h->nf = nf;
+    ASSERT_OK(mdl__corr_auto_k(h, m->V, m->F, nf, nv, 40, err), err);
+    ASSERT_INT_EQ(h->ngroups, 40); /* 40 patches */
+    ASSERT(h->ncorr >= 40);
+    mdl__hdeform d;
+    ASSERT_OK(mdl__hdeform_init(&d, h, m->V, m->F, err), err);
+    double q[4] = {0.8, 0.3, -0.4, 0.2}, R[9];
+    mdl__qnorm(q);
+    mdl__quat_to_mat(q, R);
+    double *qg = calloc(4 * (size_t)h->ngroups, sizeof *qg);
+    for (int g = 0; g < h->ngroups; g++)
+        for (int c = 0; c < 4; c++)
+            qg[4 * g + c] = (g % 2 ? -1 : 1) * q[c]; /* either sign: the same rotation */
+    ASSERT_OK(mdl__hdeform_run(&d, qg), "deform");
+    double maxe = 0;
+    for (int v = 0; v < nv; v++)
+        for (int c = 0; c < 3; c++) {
+            double y = R[3 * c] * m->V[3 * v] + R[3 * c + 1] * m->V[3 * v + 1] + R[3 * c + 2] * m->V[3 * v + 2];
+            double e = fabs(d.X[3 * v + c] - y);
+            maxe = e > maxe ? e : maxe;
+            ASSERT_NEAR_I(d.X[3 * v + c], y, 1e-6, 3 * v + c);
+        }
+    printf("rigid rotation: max deviation %.3g m\n", maxe);
+    /* per frame: no allocation */
+    struct mallinfo2 before = mallinfo2();
+    for (int it = 0; it < 20; it++) {
+        qg[0] = cos(0.1 * it);
+        qg[1] = sin(0.1 * it);
+        ASSERT_OK(mdl__hdeform_run(&d, qg), "deform");
+    }
+    struct mallinfo2 after = mallinfo2();
+    ASSERT_INT_EQ(after.uordblks, before.uordblks);
+    ASSERT_INT_EQ(after.hblkhd, before.hblkhd);
+    mdl__hdeform_fini(&d);
+    mdl__harmonic_free(h);
+    free(w), free(Rt), free(X), free(qg);
+    mdl_mesh_destroy(m);
+    puts("poisson: ok");
+    return 0;
+}

@@ -1,0 +1,55 @@
+/* test_people.c - the steering model on two captured humans with plain seven-marker rigs (issue
+ * 12: head, hands, feet, pelvis, neck; reference edge pelvis -> neck, the heading from all markers,
+ * heading.c), default options, trained on the even frames of the first 120 and driven by the rig
+ * vertices of the odd ones:
+ *   samba (rigs/samba-7.json) and pjump (rigs/pjump-7.json) beat the nearest-frame baseline.
+ * Observed (docs/PERFORMANCE.md): samba 0.90, pjump 0.87 of the baseline; with 10 mm noise 2.35
+ * and 1.61. The goal of issue 12 (0.6 x, and below the baseline under noise) is not met yet; these
+ * bounds sit just above what is observed, so that a regression fails. */
+#include "model.h"
+#include "test.h"
+
+static void run(const char *name, const char *pc2, const char *rest, const char *rigfile,
+                double max_ratio, double max_noise_ratio)
+{
+    char err[MDL_ERR_LEN] = "";
+    mdl_meshseq *s;
+    ASSERT_OK(mdl_meshseq_read(test_data(pc2), test_data(rest), &s, err), err);
+    mdl_rig *rig;
+    ASSERT_OK(mdl_rig_read(test_src(rigfile), s->nv, &rig, err), err);
+    int *tr, ntr, *te, nte;
+    ASSERT_OK(mdl_parse_frames("0:120:2", s->frames, &tr, &ntr, err), err);
+    ASSERT_OK(mdl_parse_frames("1:120:2", s->frames, &te, &nte, err), err);
+    mdl_model *m;
+    ASSERT_OK(mdl_steer_train(s, tr, ntr, rig, NULL, NULL, &m, err), err);
+    mdl_eval_opts o = {0, 0, 1};
+    mdl_eval_result r;
+    ASSERT_OK(mdl_eval_run(m, s, te, nte, &o, &r, err), err);
+    double ratio = r.mean_err / r.baseline_nn_mean_err;
+    printf("%s: mean %.5f baseline %.5f ratio %.3f (bound %.2f)\n", name, r.mean_err,
+           r.baseline_nn_mean_err, ratio, max_ratio);
+    ASSERT_INT_EQ(r.nan_count, 0);
+    ASSERT(ratio <= max_ratio);
+    mdl_eval_result_fini(&r);
+    o.noise_m = 0.010;
+    ASSERT_OK(mdl_eval_run(m, s, te, nte, &o, &r, err), err);
+    ratio = r.mean_err / r.baseline_nn_mean_err;
+    printf("%s, 10 mm noise: mean %.5f baseline %.5f ratio %.3f (bound %.2f)\n", name, r.mean_err,
+           r.baseline_nn_mean_err, ratio, max_noise_ratio);
+    ASSERT_INT_EQ(r.nan_count, 0);
+    ASSERT(ratio <= max_noise_ratio);
+    mdl_eval_result_fini(&r);
+    free(tr);
+    free(te);
+    mdl_model_destroy(m);
+    mdl_rig_destroy(rig);
+    mdl_meshseq_destroy(s);
+}
+
+int main(void)
+{
+    mdl_set_blas_threads(1);
+    run("samba-7", "meshes/samba/samba.pc2", "meshes/samba/rest.obj", "rigs/samba-7.json", 0.95, 2.5);
+    run("pjump-7", "meshes/pjump/pjump.pc2", "meshes/pjump/rest.obj", "rigs/pjump-7.json", 0.92, 1.75);
+    return 0;
+}
