@@ -75,6 +75,12 @@ struct srv_pipeline {
     char reload_path[SRV_PATH_LEN];
     char reload_labels[SRV_LABELS_MAX_LEN];
     atomic_uint next_gen;
+
+    /* synthesis health (synth_health): the run of frames synthesis refused, by the synthesis
+     * thread; degraded and its reason (under pub) for /healthz */
+    uint64_t fail_run, fail_logged_us;
+    atomic_int degraded;
+    char degraded_why[160];
 };
 
 uint64_t srv_now_us(void)
@@ -248,6 +254,7 @@ int srv_pipeline_load(const char *model_path, const char *labels, const srv_sour
         r = srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
         goto fail;
     }
+    memcpy(out->V, info.rest, (size_t)info.nv * 3 * sizeof(float)); /* the pose before any */
     if (out->nm > 0) {
         r = bind_markers(out, &info, model_path, labels, src, lookup, bound, &lmap, err);
         if (r)
@@ -463,7 +470,8 @@ static void *source_main(void *arg)
 
 /* ------------------------------------------------------------------ the synthesis thread */
 
-static void swap_pending(srv_pipeline *p)
+/* 1 when a pending generation was swapped in. */
+static int swap_pending(srv_pipeline *p)
 {
     srv_bundle old = {0};
     pthread_mutex_lock(&p->pub);
@@ -478,7 +486,59 @@ static void swap_pending(srv_pipeline *p)
                 p->cur.gen->name, p->cur.gen->nv);
         srv_bundle_fini(&old); /* frames still held by clients keep their generation alive */
         p->wake(p->wake_ud);
+        return 1;
     }
+    return 0;
+}
+
+/* After each synthesis step (r its result): a run of refused frames (no reference marker was
+ * ever valid, e.g. a source whose every marker is invalid) makes the pipeline degraded with the
+ * reason, logged at its start and then at most every 10 s; the first good frame ends it. The
+ * refused frames still go out with the last good pose (the rest pose before any), flagged
+ * reference lost, so clients see that the source is there but not tracked. */
+#define SYNTH_DEGRADED_AFTER 3
+#define SYNTH_LOG_EVERY_US 10000000u
+
+static void synth_health(srv_pipeline *p, const srv_bundle *b, int r)
+{
+    if (r == 0) {
+        if (p->fail_run >= SYNTH_DEGRADED_AFTER)
+            srv_log(SRV_LOG_NOTICE, "synthesis works again after %llu refused frames",
+                    (unsigned long long)p->fail_run);
+        p->fail_run = 0;
+        atomic_store(&p->degraded, 0);
+        return;
+    }
+    srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_FAILED], 1);
+    srv_log(SRV_LOG_DEBUG, "synthesis refused a frame (%d)", r);
+    if (++p->fail_run < SYNTH_DEGRADED_AFTER)
+        return;
+    int valid = 0;
+    for (int i = 0; i < b->nm; i++)
+        valid += b->mv[i];
+    uint64_t now = srv_now_us();
+    if (p->fail_run == SYNTH_DEGRADED_AFTER || now - p->fail_logged_us >= SYNTH_LOG_EVERY_US) {
+        pthread_mutex_lock(&p->pub);
+        snprintf(p->degraded_why, sizeof p->degraded_why,
+                 "synthesis refuses every frame: the model's reference markers were never valid "
+                 "(%d of %d model markers valid)", valid, b->nm);
+        pthread_mutex_unlock(&p->pub);
+        srv_log(SRV_LOG_WARN, "%llu frames in a row: %s; %s (check the source and --labels)",
+                (unsigned long long)p->fail_run, p->degraded_why,
+                b->idle ? "the idle animation takes over" : "sending the last good pose");
+        p->fail_logged_us = now;
+    }
+    atomic_store(&p->degraded, 1);
+}
+
+int srv_pipeline_degraded(srv_pipeline *p, char *why, size_t n)
+{
+    if (!atomic_load(&p->degraded))
+        return 0;
+    pthread_mutex_lock(&p->pub);
+    snprintf(why, n, "%s", p->degraded_why);
+    pthread_mutex_unlock(&p->pub);
+    return 1;
 }
 
 /* Publishes b->V (and the model-ordered markers b->mk, b->mv) as the newest frame. */
@@ -561,10 +621,11 @@ static int synth_tracked(srv_pipeline *p, srv_bundle *b, const float *xyz, const
     }
     uint64_t t0 = srv_now_us();
     mdl_synth_info si = {0};
-    int r = mdl_synth_markers(b->synth, b->mk, b->mv, b->V, &si);
+    int r = mdl_synth_markers(b->synth, b->mk, b->mv, b->V, &si); /* V kept when refused */
+    synth_health(p, b, r);
     if (r != 0) {
-        srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_FAILED], 1);
-        srv_log(SRV_LOG_DEBUG, "synthesis refused a frame (%d)", r);
+        if (!b->idle) /* the last good pose again (the idle animation takes over otherwise) */
+            publish(p, b, t_capture, t0, SRV_FLAG_REFERENCE_LOST, si.markers_missing);
         return r;
     }
     int flags = (si.reference_lost ? SRV_FLAG_REFERENCE_LOST : 0) |
@@ -602,6 +663,8 @@ static void *synth_main(void *arg)
     uint8_t *valid = calloc((size_t)count + 1, 1);
     uint64_t t_start = srv_now_us(), next_tick = t_start, last_frame = t_start;
     int failed = 0; /* consecutive frames the tracked kind could not synthesise */
+    uint64_t last_capture = 0; /* of the markers in xyz, valid */
+    int have_markers = 0;
     while (xyz && valid && !atomic_load(&p->stop)) {
         srv_bundle *b = &p->cur;
         int clocked = !(b->inputs & MDL_INPUT_MARKERS);
@@ -618,10 +681,19 @@ static void *synth_main(void *arg)
         int got = take_slot(p, deadline, xyz, valid, &t_capture);
         if (atomic_load(&p->stop))
             break;
-        swap_pending(p);
+        int swapped = swap_pending(p);
         b = &p->cur;
         clocked = !(b->inputs & MDL_INPUT_MARKERS);
         now = srv_now_us();
+        if (got) {
+            last_capture = t_capture;
+            have_markers = 1;
+        } else if (swapped && !clocked && have_markers) {
+            /* a reload while no frame comes (paused): the last markers through the new model, so
+             * that clients are greeted with it now, not at the resume */
+            t_capture = last_capture;
+            got = 1;
+        }
         if (got) {
             last_frame = now;
             if (!clocked) {

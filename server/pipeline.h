@@ -109,6 +109,8 @@ int srv_pipeline_reload(srv_pipeline *p, const char *model_path, const char *lab
 int srv_pipeline_reload_done(srv_pipeline *p, int *ok, char *err);
 
 drv_state srv_pipeline_source_state(srv_pipeline *p);
+/* 1 while synthesis refuses every frame (its reason into why, n bytes), else 0. */
+int srv_pipeline_degraded(srv_pipeline *p, char *why, size_t n);
 /* The source as copied at start (any thread). */
 const srv_source_info *srv_pipeline_source_info(srv_pipeline *p);
 /* The control kinds the source accepts now, as SRV_CTL_BIT()s (any thread). */

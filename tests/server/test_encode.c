@@ -80,6 +80,20 @@ int main(void)
     ASSERT(strstr((char *)g->hello, "\"frames\":240"));
     ASSERT_INT_EQ(strlen((char *)g->hello), g->hello_len);
     {
+        /* a file's label that is not UTF-8 (Latin-1 "Kn\xe9") reaches the hello, a text frame,
+         * as valid UTF-8 ("Kn?") */
+        srv_source_desc latin = {"replay:\xe9.c3d", "replay", 60, 0, 3, names, 0, NULL, bound, 0};
+        mdl_rig_marker m2[3] = {{"Kn\xe9", "", 0}, {"b", "", 1}, {"c", "C", 4}};
+        mdl_model_info i2 = info;
+        i2.markers = m2;
+        srv_gen *g3 = NULL;
+        ASSERT_OK(srv_gen_create(&i2, &latin, 9, &g3, err), err);
+        ASSERT(srv__utf8_valid((char *)g3->hello, g3->hello_len));
+        ASSERT(strstr((char *)g3->hello, "\"name\":\"Kn?\""));
+        ASSERT(strstr((char *)g3->hello, "\"spec\":\"replay:?.c3d\""));
+        srv_gen_unref(g3);
+    }
+    {
         /* no label map (live = the marker's own label) and a source without controls */
         srv_source_desc plain = {"openni2:", "openni2", 30, 0, 3, names, 0, NULL, bound, 0};
         srv_gen *g2 = NULL;
