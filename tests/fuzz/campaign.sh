@@ -60,7 +60,8 @@ seeds_of() {
     trc) globs=('*.trc') ;;
     bvh) local_seeds=(tests/data/markers/*.bvh); globs=('*.bvh') ;;
     csv) local_seeds=(tests/data/markers/*.csv); globs=('*.csv') ;;
-    model) local_seeds=("$build/tests/fuzz/seed.msm") ;;
+    model) local_seeds=("$build/tests/fuzz/seed.msm" "$build/tests/fuzz/seed-harmonic.msm"
+                        tests/data/model_v1.msm) ;;
     fakenect) local_seeds=(tests/data/fakenect_INDEX.txt tests/data/fakenect_truncated.pgm)
               globs=('INDEX.txt' '*.pgm') ;;
     control) local_seeds=(tests/server/data/control_*.json) ;;
