@@ -33,6 +33,7 @@ struct srv_pipeline {
     srv_source_info si;            /* what other threads may read of the source */
     atomic_uint controls;          /* SRV_CTL_BIT()s the source accepts now (changes on reopen) */
     atomic_int idle_on;            /* the idle synthesis drives the output */
+    atomic_int paused;             /* a client paused the source: no frames, but someone is there */
     srv_metrics *m;
     void (*wake)(void *);
     void *wake_ud;
@@ -389,6 +390,8 @@ static void apply_controls(srv_pipeline *p)
         if (r == 0) {
             if (ctl == DRV_CTL_SEEK)
                 atomic_store(&p->reset_synth, 1);
+            if (ctl == DRV_CTL_PAUSE)
+                atomic_store(&p->paused, v != 0);
             len = srv_reply_ack(reply, c);
             srv_metrics_count(&p->m->control_ok, 1);
             srv_log(SRV_LOG_INFO, "source control %s %g", srv_control_name(c->kind), v);
@@ -672,7 +675,8 @@ static void *synth_main(void *arg)
         drv_state st = (drv_state)atomic_load(&p->src_state);
         const char *why = st == DRV_STATE_LOST    ? "the source is lost"
                         : st == DRV_STATE_ENDED   ? "the source ended"
-                        : now - last_frame > SRV_IDLE_AFTER_US ? "no source frames"
+                        : !atomic_load(&p->paused) && now - last_frame > SRV_IDLE_AFTER_US
+                            ? "no source frames"
                         : failed >= (int)b->clock_fps ? "the markers do not allow a pose"
                                                       : NULL;
         int idle = !clocked && b->idle && why;

@@ -7,7 +7,8 @@
  * its model's fps instead of at the source's frames. A bundle may also hold an *idle* synthesis:
  * the clock-driven kind of the same model file (so the same mesh, and no new hello when it takes
  * over), which the synthesis thread runs whenever no one is tracked: the source is lost or ended,
- * no source frame came for SRV_IDLE_AFTER_US, or the tracked kind cannot synthesise (no reference
+ * no source frame came for SRV_IDLE_AFTER_US (unless a client paused it: a paused replay holds
+ * its pose), or the tracked kind cannot synthesise (no reference
  * yet, every marker invalid). Its frames carry SRV_FLAG_IDLE.
  * wake() is lws_cancel_service in the daemon (the only lws call made from these threads).
  * Per frame nothing is allocated: buffers come with the generation (srv_pipeline_load).

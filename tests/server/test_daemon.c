@@ -407,7 +407,7 @@ static void scenario_kinds(void)
 {
     char model[1200], source[1200], *body = NULL;
     snprintf(model, sizeof model, "%s/two-kinds.msm", H.dir);
-    snprintf(source, sizeof source, "replay:%s/trot.csv?start=200", H.dir); /* 40 frames left */
+    snprintf(source, sizeof source, "replay:%s/trot.csv?start=150", H.dir); /* 90 frames left */
     const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0", "-v", NULL};
     harness_start(&H, meshsteerd, args);
     struct lws_context *ctx = wsc_context();
@@ -421,8 +421,17 @@ static void scenario_kinds(void)
     ASSERT(cJSON_IsTrue(cJSON_GetObjectItem(m, "idle")));
     cJSON_Delete(h);
     ASSERT(count_flag(A, 0, 8, 0) >= 10); /* tracked frames while the replay plays */
-    /* the replay ends after 40 frames: the idle animation takes over, at the model's 30 fps */
-    run_until(ctx, A, A->total_frames + 80, 0, 15000); /* the last 20 tracked, then idle */
+    /* a paused replay holds its pose: someone is there, so no idle animation for 2 s */
+    wsc_send(A, "{\"type\":\"pause\"}");
+    run_until(ctx, A, 0, 1, 5000);
+    int paused_at = A->nframes;
+    wsc_run(ctx, 2000, NULL, NULL);
+    ASSERT_INT_EQ(count_flag(A, paused_at, 8, 1), 0);
+    printf("kinds: paused 2 s: %d frames, none idle\n", A->nframes - paused_at);
+    wsc_send(A, "{\"type\":\"resume\"}");
+    run_until(ctx, A, 0, 2, 5000);
+    /* the replay ends: the idle animation takes over, at the model's 30 fps */
+    run_until(ctx, A, A->total_frames + 140, 0, 15000); /* the last ~80 tracked, then idle */
     int from = A->nframes - 50;
     int idle = count_flag(A, from, 8, 1);
     printf("kinds: %d of the last 50 frames are idle; hellos %d\n", idle, A->hellos);
@@ -439,7 +448,7 @@ static void scenario_kinds(void)
     ASSERT_RATE(rate, 30, 4);
     /* a seek back revives the replay: tracked again */
     wsc_send(A, "{\"type\":\"seek\",\"frame\":0}");
-    run_until(ctx, A, A->total_frames + 40, 1, 15000);
+    run_until(ctx, A, A->total_frames + 40, 3, 15000);
     from = A->nframes - 20;
     ASSERT(count_flag(A, from, 8, 0) >= 18);
     ASSERT(harness_log_has(&H, "tracking again"));
