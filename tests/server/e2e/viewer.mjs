@@ -139,8 +139,12 @@ async function playback(page) {
     const after = nearestRow(csv, m);
     const ahead = (after.frame - target + n) % n;
     // the newest frame is the target plus the frames since the ack, plus those synthesised after the
-    // seek but written before the ack (the lws thread interleaves them): 10 frames, a third of a second
-    check(ahead <= m.since + 10 && after.rms < 1e-3,
+    // seek but written before the ack (the lws thread interleaves them): 10 frames, a third of a
+    // second; plus those still in the page's receive queue when it drew: latency x source rate (a
+    // page that renders slowly, e.g. against a daemon under a sanitizer, lags by more frames)
+    const lat = await page.evaluate(() => window.meshsteer.latencyMs);
+    const queued = Number.isFinite(lat) && lat > 0 ? Math.ceil(lat / 1000 * 30) : 0;
+    check(ahead <= m.since + 10 + queued && after.rms < 1e-3,
           `seek to ${target}: from frame ${before.frame} to ${after.frame}, ${m.since} frames after the ack (rms ${after.rms.toExponential(1)} m)`);
     await page.screenshot({ path: state(`seek-${target}`) });
   }
