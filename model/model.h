@@ -266,6 +266,9 @@ typedef struct mdl_harmonic_opts {
     const int *given_off; /* with a rig, may be NULL: per bone (rig limb) user triangles, */
     const int *given_idx; /*   given_idx[given_off[b] .. given_off[b+1]), completed by cross-section */
     const char *name;     /* model name */
+    const mdl_markers *template_motion; /* may be NULL: the template's motion (a BVH's frames, as
+                             synthesis will see them); its lowest marker over all frames is the
+                             floor put on the target's floor. NULL: the rest pose's lowest marker */
 } mdl_harmonic_opts;
 
 void mdl_harmonic_opts_default(mdl_harmonic_opts *o);
@@ -274,7 +277,8 @@ void mdl_harmonic_opts_default(mdl_harmonic_opts *o);
  * Otherwise the rig's limbs are the template's bones ([from, to] or [from, to, twist] marker
  * names), reference[0] its root, and template_rest (frame 0) holds the rig's `source` labels in the
  * template's rest pose; it is aligned to the target by scale (height) and translation (feet on the
- * target's floor, centres over each other), both facing the same way. The model's rig is a copy of
+ * target's floor, centres over each other), both facing the same way. Marker frames at synthesis
+ * are mapped with the same scale, the mocap's floor (o->template_motion) on the target's floor. The model's rig is a copy of
  * `rig` whose vertices are the target vertices nearest the aligned joints. */
 int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_markers *template_rest,
                        const mdl_harmonic_opts *o, mdl_model **out, char *err);

@@ -97,7 +97,7 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
     int status = CLI_EXIT_USAGE;
     mdl_meshseq *seq = NULL;
     mdl_rig *rig = NULL;
-    mdl_markers *tm = NULL;
+    mdl_markers *tm = NULL, *tmotion = NULL;
     mdl_model *model = NULL;
     if (mdl_meshseq_read(mesh, rest, &seq, err) || (rigp && mdl_rig_read(rigp, 0, &rig, err))) {
         cli_fail(cmd, status, "%s", err);
@@ -111,6 +111,13 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
             cli_fail(cmd, status, "%s", err);
             goto out;
         }
+        /* the motion too, for the mocap's floor (a BVH rest pose has its root at the origin) */
+        to.rest = 0;
+        if (mdl_markers_read(tmpl, &to, &tmotion, err)) {
+            cli_fail(cmd, status, "%s", err);
+            goto out;
+        }
+        o.template_motion = tmotion;
     }
     mdl_mesh target = {.nv = seq->nv, .nf = seq->nf, .V = seq->V, .F = seq->F};
     int r = mdl_harmonic_build(&target, o.auto_k ? NULL : rig, tm, &o, &model, err);
@@ -132,6 +139,7 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
 out:
     mdl_model_destroy(model);
     mdl_markers_destroy(tm);
+    mdl_markers_destroy(tmotion);
     mdl_rig_destroy(rig);
     mdl_meshseq_destroy(seq);
     return status;
