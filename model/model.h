@@ -262,6 +262,8 @@ int mdl_steer_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
 typedef struct mdl_harmonic_opts {
     int auto_k;           /* > 0: K correspondences by farthest-point sampling, each its own group,
                              no template (a model measured on its own sequence: `auto:K`) */
+    int rings;            /* with auto_k: each sample grown to a cross-section ring (the triangles in
+                             a slab normal to the local principal axis, `rings:K`) instead of a patch */
     int per_bone;         /* with a rig: automatic correspondence triangles per bone (Sec. 4.2) */
     const int *given_off; /* with a rig, may be NULL: per bone (rig limb) user triangles, */
     const int *given_idx; /*   given_idx[given_off[b] .. given_off[b+1]), completed by cross-section */

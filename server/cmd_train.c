@@ -12,7 +12,7 @@
 static const char usage_text[] =
     "usage: meshsteer train --mesh PATH --rig RIG.json -o MODEL [options]\n"
     "       meshsteer train --kind harmonic --mesh TARGET [--rig RIG.json --template FILE]\n"
-    "                       [--correspondences auto|auto:K] -o MODEL\n"
+    "                       [--correspondences auto|auto:K|rings:K] -o MODEL\n"
     "\n"
     "Learns the part-based pose and shape model (Voegele et al. 2012) from an example animation.\n"
     "\n"
@@ -52,9 +52,11 @@ static const char usage_text[] =
     "                     names, reference[0] the root (docs/MODEL.md); not needed with auto:K\n"
     "  --template FILE    the template's rest pose: a BVH's rest pose (all rotations zero), or\n"
     "                     frame 0 of another marker file\n"
-    "  --correspondences auto|auto:K\n"
+    "  --correspondences auto|auto:K|rings:K\n"
     "                     auto (default with a rig): --per-bone triangles along every bone;\n"
     "                     auto:K: K triangles spread over the mesh, no template (for eval)\n"
+    "                     rings:K: as auto:K, each grown to a ring across the local principal\n"
+    "                     axis (a limb's cross-section) instead of a patch\n"
     "  --per-bone N       automatic correspondence triangles per bone (default 8)\n" CLI_MARKER_OPTS_HELP;
 
 static int write_report(const char *cmd, const mdl_model *model, const char *report)
@@ -81,8 +83,9 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
     mdl_harmonic_opts_default(&o);
     o.per_bone = per_bone;
     o.name = name;
-    if (corr && strncmp(corr, "auto:", 5) == 0) {
-        if (cli_parse_int(cmd, "--correspondences auto:K", corr + 5, &o.auto_k) || o.auto_k < 1)
+    if (corr && (strncmp(corr, "auto:", 5) == 0 || strncmp(corr, "rings:", 6) == 0)) {
+        o.rings = corr[0] == 'r';
+        if (cli_parse_int(cmd, "--correspondences auto:K", corr + 5 + o.rings, &o.auto_k) || o.auto_k < 1)
             return cli_usage_error(cmd, "--correspondences: '%s': K must be a positive integer", corr);
     } else if (corr && strcmp(corr, "auto") != 0) {
         return cli_usage_error(cmd, "--correspondences: '%s': expected auto or auto:K (a file of "

@@ -125,7 +125,8 @@ int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_mar
     int rc = 0;
     mdl_rig *mrig = NULL;
     if (o->auto_k > 0) {
-        rc = mdl__corr_auto_k(h, target->V, target->F, target->nf, target->nv, o->auto_k, err);
+        rc = mdl__corr_auto_k(h, target->V, target->F, target->nf, target->nv, o->auto_k, o->rings,
+                              err);
     } else {
         if ((rc = mdl__rig_copy(rig, &mrig, err)))
             goto fail;

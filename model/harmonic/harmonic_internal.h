@@ -140,9 +140,10 @@ int mdl__candy_align(const int *parent, const int *order, int ngroups, double *q
 /* ------------------------------------------------------------------ correspondences.c (Sec. 4.2) */
 
 /* auto:K on a mesh alone: K triangles by farthest-point sampling of triangle centroids (each
- * connected part gets at least one), each its own group. */
+ * connected part gets at least one), each grown to its own group: a patch around it, or with
+ * `rings` (rings:K) a cross-section ring across the local principal axis. */
 int mdl__corr_auto_k(struct mdl_harmonic *h, const float *rest, const uint32_t *F, int nf, int nv,
-                     int k, char *err);
+                     int k, int rings, char *err);
 /* The bone-driven proposal: every target triangle goes to its nearest bone segment (aligned rest
  * poses); up to per_bone of a bone's triangles with segment parameter in [0.2, 0.8] are chosen by
  * farthest-point sampling. given (may be NULL): per bone a list of user triangles (off/idx as in a

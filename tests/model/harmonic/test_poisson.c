@@ -36,7 +36,7 @@ int main(void)
     struct mdl_harmonic *h = calloc(1, sizeof *h);
     h->nv = nv;
     h->nf = nf;
-    ASSERT_OK(mdl__corr_auto_k(h, m->V, m->F, nf, nv, 40, err), err);
+    ASSERT_OK(mdl__corr_auto_k(h, m->V, m->F, nf, nv, 40, 0, err), err);
     ASSERT_INT_EQ(h->ngroups, 40); /* 40 patches */
     ASSERT(h->ncorr >= 40);
     mdl__hdeform d;
