@@ -93,7 +93,7 @@ typedef struct mdl_marker_opts {
                      the motion (BVH, ASF/AMC only) */
 } mdl_marker_opts;
 
-/* Reads by extension: .c3d .trc .bvh .csv. `o` may be NULL for defaults. */
+/* Reads by extension: .c3d .trc .bvh .csv .amc .asf. `o` may be NULL for defaults. */
 int mdl_markers_read(const char *path, const mdl_marker_opts *o, mdl_markers **out, char *err);
 int mdl_markers_parse_c3d(const uint8_t *buf, size_t len, const char *name, const mdl_marker_opts *o,
                           mdl_markers **out, char *err);
@@ -103,6 +103,13 @@ int mdl_markers_parse_bvh(const char *buf, size_t len, const char *name, const m
                           mdl_markers **out, char *err);
 int mdl_markers_parse_csv(const char *buf, size_t len, const char *name, const mdl_marker_opts *o,
                           mdl_markers **out, char *err);
+/* ASF/AMC (asf_amc.c): joint positions by forward kinematics, "root" and every bone's far end.
+ * amc may be NULL (then, as with o->rest, one frame: the skeleton's rest pose). mdl_markers_read
+ * takes FILE.amc (its skeleton: FILE.asf, else the .asf in the same folder whose name is the
+ * longest prefix of FILE's, e.g. HDM_dg.asf for HDM_dg_06-03_03_120.amc) or FILE.asf (rest pose). */
+int mdl_markers_parse_asf_amc(const char *asf, size_t asf_len, const char *amc, size_t amc_len,
+                              const char *name, const mdl_marker_opts *o, mdl_markers **out,
+                              char *err);
 /* Writers take metres, Y up, and write the format's own convention (C3D: mm, Z up, float storage). */
 int mdl_markers_write_c3d(const char *path, const mdl_markers *m, char *err);
 int mdl_markers_write_csv(const char *path, const mdl_markers *m, char *err);

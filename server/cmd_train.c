@@ -19,7 +19,7 @@ static const char usage_text[] =
     "  --mesh PATH        a directory of numbered OBJ frames, or a .pc2 point cache (with --rest)\n"
     "  --rest REST.obj    topology for a .pc2 mesh\n"
     "  --rig RIG.json     how markers attach to the mesh (docs/FORMATS.md)\n"
-    "  --markers FILE     a marker recording (C3D, TRC, BVH, CSV) to learn from; without it the\n"
+    "  --markers FILE     a marker recording (C3D, TRC, BVH, AMC, CSV) to learn from; without it the\n"
     "                     rig vertices' own trajectories are the markers (virtual markers)\n"
     "  --frames SPEC      training frames, a Python slice start:stop[:step] (default: all)\n"
     "  -o, --output MODEL where to write the model\n"
@@ -50,8 +50,8 @@ static const char usage_text[] =
     "harmonic options:\n"
     "  --rig RIG.json     the template's bones: limbs [from, to] or [from, to, twist] of marker\n"
     "                     names, reference[0] the root (docs/MODEL.md); not needed with auto:K\n"
-    "  --template FILE    the template's rest pose: a BVH's rest pose (all rotations zero), or\n"
-    "                     frame 0 of another marker file\n"
+    "  --template FILE    the template's rest pose: a BVH's or ASF/AMC's rest pose (all rotations\n"
+    "                     zero), or frame 0 of another marker file\n"
     "  --correspondences auto|auto:K|rings:K\n"
     "                     auto (default with a rig): --per-bone triangles along every bone;\n"
     "                     auto:K: K triangles spread over the mesh, no template (for eval)\n"
@@ -85,7 +85,8 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
     o.name = name;
     if (corr && (strncmp(corr, "auto:", 5) == 0 || strncmp(corr, "rings:", 6) == 0)) {
         o.rings = corr[0] == 'r';
-        if (cli_parse_int(cmd, "--correspondences auto:K", corr + 5 + o.rings, &o.auto_k) || o.auto_k < 1)
+        if (cli_parse_int(cmd, "--correspondences auto:K", corr + 5 + o.rings, &o.auto_k) ||
+            o.auto_k < 1)
             return cli_usage_error(cmd, "--correspondences: '%s': K must be a positive integer", corr);
     } else if (corr && strcmp(corr, "auto") != 0) {
         return cli_usage_error(cmd, "--correspondences: '%s': expected auto or auto:K (a file of "
@@ -109,7 +110,8 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
     if (tmpl && o.auto_k == 0) {
         mdl_marker_opts to = *mo;
         const char *dot = strrchr(tmpl, '.');
-        to.rest = dot && (strcasecmp(dot, ".bvh") == 0);
+        to.rest = dot && (strcasecmp(dot, ".bvh") == 0 || strcasecmp(dot, ".amc") == 0 ||
+                          strcasecmp(dot, ".asf") == 0);
         if (mdl_markers_read(tmpl, &to, &tm, err)) {
             cli_fail(cmd, status, "%s", err);
             goto out;

@@ -121,14 +121,19 @@ if [ -d "$data/meshes/horse-gallop" ]; then
     fi
 fi
 
-# the harmonic kind's real use (issue 9): the static human driven by CMU BVH, through the command
-# line; contact sheets of the hop and the walk in the build directory. tests/model/harmonic/
+# the harmonic kind's real use (issue 9): the static human driven by CMU BVH and the HDM05 ASF/AMC
+# take, through the command line; contact sheets of the hop, the walk and the HDM05 take in the
+# build directory. tests/model/harmonic/
 # test_human.c checks feet, jitter and triangle areas frame by frame.
 human="$data/meshes/static-human/human_man.obj"
 if [ -f "$human" ] && [ -f "$data/mocap/bvh/cmu/131_03.bvh" ]; then
-    for take in 131_03 131_01; do
-        bvh="$data/mocap/bvh/cmu/$take.bvh"
-        expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-cmu-harmonic.json" \
+    for take in 131_03 131_01 hdm05-dg; do
+        bvh="$data/mocap/bvh/cmu/$take.bvh" rig="$src/rigs/human-cmu-harmonic.json"
+        if [ "$take" = hdm05-dg ]; then
+            bvh="$data/mocap/asf_amc/hdm05/HDM_dg_06-03_03_120.amc" rig="$src/rigs/human-asf-harmonic.json"
+            [ -f "$bvh" ] || continue
+        fi
+        expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$rig" \
             --template "$bvh" -o "$dir/human.msm"
         expect_status 0 "$ms" synth --model "$dir/human.msm" --markers "$bvh" -o "$dir/human.pc2" --json
         cp "$dir/out" "$dir/human.json"

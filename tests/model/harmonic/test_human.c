@@ -1,6 +1,7 @@
 /* test_human.c - the paper's real use (de Aguiar et al. 2007 Sec. 5): the static human
  * (static-human/human_man.obj, an SMPL T-pose) animated by CMU BVH takes (131_03 hop, 131_01 walk)
- * through rigs/human-cmu-harmonic.json, with automatic correspondences. Per take:
+ * through rigs/human-cmu-harmonic.json and the HDM05 ASF/AMC take (HDM_dg_06-03_03_120.amc)
+ * through rigs/human-asf-harmonic.json, with automatic correspondences. Per take:
  *   - no non-finite vertex;
  *   - global position (Sec. 5): the lowest vertex of every frame within FLOOR_MAX of the mocap's
  *     lowest foot marker (ankles, toes and their end sites) mapped into the target's space; the
@@ -46,7 +47,8 @@ static double tri_area(const float *V, const uint32_t *f)
 
 static int is_foot(const char *n)
 {
-    return strstr(n, "Toe") || strstr(n, "Ankle") || strstr(n, "Foot");
+    return strcasestr(n, "toe") || strcasestr(n, "ankle") || strcasestr(n, "foot") ||
+           strcasestr(n, "tibia"); /* an ASF tibia's far end is the ankle */
 }
 
 /* mean |s(f) - s(f-1)| / mean s over frames 1..n-1 (cmd_synth.c's definition) */
@@ -60,10 +62,9 @@ static double jitter(const double *sp, int n)
     return m > 0 ? (d / (n - 2)) / (m / (n - 1)) : 0;
 }
 
-static void run_take(const mdl_mesh *target, const mdl_rig *rig, const char *take)
+static void run_take(const mdl_mesh *target, const mdl_rig *rig, const char *take, const char *rel)
 {
-    char err[MDL_ERR_LEN] = "", rel[256];
-    snprintf(rel, sizeof rel, "mocap/bvh/cmu/%s.bvh", take);
+    char err[MDL_ERR_LEN] = "";
     const char *bvh = test_data(rel);
     mdl_marker_opts mo = {0};
     mdl_markers *rest = NULL, *mk = NULL;
@@ -166,12 +167,15 @@ int main(void)
 {
     char err[MDL_ERR_LEN] = "";
     mdl_mesh *target = NULL;
-    mdl_rig *rig = NULL;
+    mdl_rig *rig = NULL, *arig = NULL;
     ASSERT_OK(mdl_mesh_read_obj(test_data("meshes/static-human/human_man.obj"), &target, err), err);
     ASSERT_OK(mdl_rig_read(test_src("rigs/human-cmu-harmonic.json"), 0, &rig, err), err);
-    run_take(target, rig, "131_03");
-    run_take(target, rig, "131_01");
+    ASSERT_OK(mdl_rig_read(test_src("rigs/human-asf-harmonic.json"), 0, &arig, err), err);
+    run_take(target, rig, "131_03", "mocap/bvh/cmu/131_03.bvh");
+    run_take(target, rig, "131_01", "mocap/bvh/cmu/131_01.bvh");
+    run_take(target, arig, "hdm05-dg", "mocap/asf_amc/hdm05/HDM_dg_06-03_03_120.amc");
     mdl_rig_destroy(rig);
+    mdl_rig_destroy(arig);
     mdl_mesh_destroy(target);
     return 0;
 }
