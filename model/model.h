@@ -93,7 +93,7 @@ typedef struct mdl_marker_opts {
                      the motion (BVH, ASF/AMC only) */
 } mdl_marker_opts;
 
-/* Reads by extension: .c3d .trc .bvh .csv. `o` may be NULL for defaults. */
+/* Reads by extension: .c3d .trc .bvh .csv .amc .asf. `o` may be NULL for defaults. */
 int mdl_markers_read(const char *path, const mdl_marker_opts *o, mdl_markers **out, char *err);
 int mdl_markers_parse_c3d(const uint8_t *buf, size_t len, const char *name, const mdl_marker_opts *o,
                           mdl_markers **out, char *err);
@@ -103,6 +103,13 @@ int mdl_markers_parse_bvh(const char *buf, size_t len, const char *name, const m
                           mdl_markers **out, char *err);
 int mdl_markers_parse_csv(const char *buf, size_t len, const char *name, const mdl_marker_opts *o,
                           mdl_markers **out, char *err);
+/* ASF/AMC (asf_amc.c): joint positions by forward kinematics, "root" and every bone's far end.
+ * amc may be NULL (then, as with o->rest, one frame: the skeleton's rest pose). mdl_markers_read
+ * takes FILE.amc (its skeleton: FILE.asf, else the .asf in the same folder whose name is the
+ * longest prefix of FILE's, e.g. HDM_dg.asf for HDM_dg_06-03_03_120.amc) or FILE.asf (rest pose). */
+int mdl_markers_parse_asf_amc(const char *asf, size_t asf_len, const char *amc, size_t amc_len,
+                              const char *name, const mdl_marker_opts *o, mdl_markers **out,
+                              char *err);
 /* Writers take metres, Y up, and write the format's own convention (C3D: mm, Z up, float storage). */
 int mdl_markers_write_c3d(const char *path, const mdl_markers *m, char *err);
 int mdl_markers_write_csv(const char *path, const mdl_markers *m, char *err);
@@ -262,10 +269,15 @@ int mdl_steer_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
 typedef struct mdl_harmonic_opts {
     int auto_k;           /* > 0: K correspondences by farthest-point sampling, each its own group,
                              no template (a model measured on its own sequence: `auto:K`) */
+    int rings;            /* with auto_k: each sample grown to a cross-section ring (the triangles in
+                             a slab normal to the local principal axis, `rings:K`) instead of a patch */
     int per_bone;         /* with a rig: automatic correspondence triangles per bone (Sec. 4.2) */
     const int *given_off; /* with a rig, may be NULL: per bone (rig limb) user triangles, */
     const int *given_idx; /*   given_idx[given_off[b] .. given_off[b+1]), completed by cross-section */
     const char *name;     /* model name */
+    const mdl_markers *template_motion; /* may be NULL: the template's motion (a BVH's frames, as
+                             synthesis will see them); its lowest marker over all frames is the
+                             floor put on the target's floor. NULL: the rest pose's lowest marker */
 } mdl_harmonic_opts;
 
 void mdl_harmonic_opts_default(mdl_harmonic_opts *o);
@@ -274,7 +286,8 @@ void mdl_harmonic_opts_default(mdl_harmonic_opts *o);
  * Otherwise the rig's limbs are the template's bones ([from, to] or [from, to, twist] marker
  * names), reference[0] its root, and template_rest (frame 0) holds the rig's `source` labels in the
  * template's rest pose; it is aligned to the target by scale (height) and translation (feet on the
- * target's floor, centres over each other), both facing the same way. The model's rig is a copy of
+ * target's floor, centres over each other), both facing the same way. Marker frames at synthesis
+ * are mapped with the same scale, the mocap's floor (o->template_motion) on the target's floor. The model's rig is a copy of
  * `rig` whose vertices are the target vertices nearest the aligned joints. */
 int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_markers *template_rest,
                        const mdl_harmonic_opts *o, mdl_model **out, char *err);

@@ -24,7 +24,7 @@ static void render_usage(FILE *f)
             "  --frames SPEC    frames to draw: N, start:stop[:step] (default: %d evenly spaced)\n"
             "  --cols N         cells per row (default 4)\n"
             "  --size PX        cell width in pixels, height is 3/4 of it (default 256)\n"
-            "  --markers FILE   a marker file (.c3d .trc .bvh .csv); frame i of the sheet shows\n"
+            "  --markers FILE   a marker file (.c3d .trc .bvh .csv .amc); frame i of the sheet shows\n"
             "                   marker frame i of the mesh sequence's numbering\n"
             "  -o SHEET.png     output image\n",
             DEFAULT_FRAMES);

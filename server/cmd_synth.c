@@ -20,7 +20,7 @@ static const char usage_text[] =
     "position.\n"
     "\n"
     "  --model MODEL      a model written by 'meshsteer train'\n"
-    "  --markers FILE     C3D, TRC, BVH or CSV marker recording\n"
+    "  --markers FILE     C3D, TRC, BVH, ASF/AMC or CSV marker recording\n"
     "  -o, --output FILE  the result as a PC2 point cache (opens in Blender)\n"
     "  --obj-dir DIR      also write every frame as DIR/NNNN.obj\n"
     "  --frames SPEC      which marker frames, a Python slice (default: all)\n"

@@ -12,14 +12,14 @@
 static const char usage_text[] =
     "usage: meshsteer train --mesh PATH --rig RIG.json -o MODEL [options]\n"
     "       meshsteer train --kind harmonic --mesh TARGET [--rig RIG.json --template FILE]\n"
-    "                       [--correspondences auto|auto:K] -o MODEL\n"
+    "                       [--correspondences auto|auto:K|rings:K] -o MODEL\n"
     "\n"
     "Learns the part-based pose and shape model (Voegele et al. 2012) from an example animation.\n"
     "\n"
     "  --mesh PATH        a directory of numbered OBJ frames, or a .pc2 point cache (with --rest)\n"
     "  --rest REST.obj    topology for a .pc2 mesh\n"
     "  --rig RIG.json     how markers attach to the mesh (docs/FORMATS.md)\n"
-    "  --markers FILE     a marker recording (C3D, TRC, BVH, CSV) to learn from; without it the\n"
+    "  --markers FILE     a marker recording (C3D, TRC, BVH, AMC, CSV) to learn from; without it the\n"
     "                     rig vertices' own trajectories are the markers (virtual markers)\n"
     "  --frames SPEC      training frames, a Python slice start:stop[:step] (default: all)\n"
     "  -o, --output MODEL where to write the model\n"
@@ -50,11 +50,13 @@ static const char usage_text[] =
     "harmonic options:\n"
     "  --rig RIG.json     the template's bones: limbs [from, to] or [from, to, twist] of marker\n"
     "                     names, reference[0] the root (docs/MODEL.md); not needed with auto:K\n"
-    "  --template FILE    the template's rest pose: a BVH's rest pose (all rotations zero), or\n"
-    "                     frame 0 of another marker file\n"
-    "  --correspondences auto|auto:K\n"
+    "  --template FILE    the template's rest pose: a BVH's or ASF/AMC's rest pose (all rotations\n"
+    "                     zero), or frame 0 of another marker file\n"
+    "  --correspondences auto|auto:K|rings:K\n"
     "                     auto (default with a rig): --per-bone triangles along every bone;\n"
     "                     auto:K: K triangles spread over the mesh, no template (for eval)\n"
+    "                     rings:K: as auto:K, each grown to a ring across the local principal\n"
+    "                     axis (a limb's cross-section) instead of a patch\n"
     "  --per-bone N       automatic correspondence triangles per bone (default 8)\n" CLI_MARKER_OPTS_HELP;
 
 static int write_report(const char *cmd, const mdl_model *model, const char *report)
@@ -81,8 +83,10 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
     mdl_harmonic_opts_default(&o);
     o.per_bone = per_bone;
     o.name = name;
-    if (corr && strncmp(corr, "auto:", 5) == 0) {
-        if (cli_parse_int(cmd, "--correspondences auto:K", corr + 5, &o.auto_k) || o.auto_k < 1)
+    if (corr && (strncmp(corr, "auto:", 5) == 0 || strncmp(corr, "rings:", 6) == 0)) {
+        o.rings = corr[0] == 'r';
+        if (cli_parse_int(cmd, "--correspondences auto:K", corr + 5 + o.rings, &o.auto_k) ||
+            o.auto_k < 1)
             return cli_usage_error(cmd, "--correspondences: '%s': K must be a positive integer", corr);
     } else if (corr && strcmp(corr, "auto") != 0) {
         return cli_usage_error(cmd, "--correspondences: '%s': expected auto or auto:K (a file of "
@@ -97,7 +101,7 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
     int status = CLI_EXIT_USAGE;
     mdl_meshseq *seq = NULL;
     mdl_rig *rig = NULL;
-    mdl_markers *tm = NULL;
+    mdl_markers *tm = NULL, *tmotion = NULL;
     mdl_model *model = NULL;
     if (mdl_meshseq_read(mesh, rest, &seq, err) || (rigp && mdl_rig_read(rigp, 0, &rig, err))) {
         cli_fail(cmd, status, "%s", err);
@@ -106,11 +110,19 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
     if (tmpl && o.auto_k == 0) {
         mdl_marker_opts to = *mo;
         const char *dot = strrchr(tmpl, '.');
-        to.rest = dot && (strcasecmp(dot, ".bvh") == 0);
+        to.rest = dot && (strcasecmp(dot, ".bvh") == 0 || strcasecmp(dot, ".amc") == 0 ||
+                          strcasecmp(dot, ".asf") == 0);
         if (mdl_markers_read(tmpl, &to, &tm, err)) {
             cli_fail(cmd, status, "%s", err);
             goto out;
         }
+        /* the motion too, for the mocap's floor (a BVH rest pose has its root at the origin) */
+        to.rest = 0;
+        if (mdl_markers_read(tmpl, &to, &tmotion, err)) {
+            cli_fail(cmd, status, "%s", err);
+            goto out;
+        }
+        o.template_motion = tmotion;
     }
     mdl_mesh target = {.nv = seq->nv, .nf = seq->nf, .V = seq->V, .F = seq->F};
     int r = mdl_harmonic_build(&target, o.auto_k ? NULL : rig, tm, &o, &model, err);
@@ -132,6 +144,7 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
 out:
     mdl_model_destroy(model);
     mdl_markers_destroy(tm);
+    mdl_markers_destroy(tmotion);
     mdl_rig_destroy(rig);
     mdl_meshseq_destroy(seq);
     return status;

@@ -8,7 +8,9 @@
 #include "core/util.h"
 
 #include <ctype.h>
+#include <dirent.h>
 #include <errno.h>
+#include <sys/stat.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -72,14 +74,67 @@ int mdl_markers_find(const mdl_markers *m, const char *name)
     return -1;
 }
 
+/* FILE.amc: its skeleton is FILE.asf, else the .asf in its folder whose stem is the longest prefix
+ * of FILE's stem (model.h); FILE.asf alone: the rest pose */
+static int read_asf_amc(const char *path, const char *dot, const mdl_marker_opts *o,
+                        mdl_markers **out, char *err)
+{
+    int is_amc = strcasecmp(dot, ".amc") == 0;
+    char asf[4096 + 512];
+    size_t stem = (size_t)(dot - path);
+    if (stem + 5 > sizeof asf)
+        return mdl__err(err, -ENAMETOOLONG, "%s: path too long", path);
+    if (!is_amc) {
+        snprintf(asf, sizeof asf, "%s", path);
+    } else {
+        memcpy(asf, path, stem);
+        memcpy(asf + stem, ".asf", 5);
+        struct stat st;
+        if (stat(asf, &st) != 0) {
+            const char *slash = strrchr(path, '/');
+            size_t dlen = slash ? (size_t)(slash - path) : 0;
+            const char *base = slash ? slash + 1 : path;
+            size_t blen = (size_t)(dot - base), best = 0;
+            char dir[4096];
+            snprintf(dir, sizeof dir, "%.*s", dlen ? (int)dlen : 1, dlen ? path : ".");
+            DIR *d = opendir(dir);
+            if (!d)
+                return mdl__err(err, -errno, "%s: no skeleton %s, and its folder: %s", path, asf,
+                                strerror(errno));
+            for (struct dirent *e; (e = readdir(d));) {
+                size_t n = strlen(e->d_name);
+                if (n < 5 || strcasecmp(e->d_name + n - 4, ".asf") != 0 || n - 4 > blen ||
+                    strncmp(e->d_name, base, n - 4) != 0 || n - 4 <= best)
+                    continue;
+                best = n - 4;
+                snprintf(asf, sizeof asf, "%s/%s", dir, e->d_name);
+            }
+            closedir(d);
+            if (best == 0)
+                return mdl__err(err, -ENOENT, "%s: no skeleton: neither %.*s.asf nor an .asf whose "
+                                "name begins %s", path, (int)stem, path, base);
+        }
+    }
+    char *sb = NULL, *mb = NULL;
+    size_t sl = 0, ml = 0;
+    int r = mdl__read_file(asf, MDL__MARKERS_MAX_FILE, &sb, &sl, err);
+    if (!r && is_amc)
+        r = mdl__read_file(path, MDL__MARKERS_MAX_FILE, &mb, &ml, err);
+    if (!r)
+        r = mdl_markers_parse_asf_amc(sb, sl, mb, ml, is_amc ? path : asf, o, out, err);
+    free(sb);
+    free(mb);
+    return r;
+}
+
 int mdl_markers_read(const char *path, const mdl_marker_opts *o, mdl_markers **out, char *err)
 {
     *out = NULL;
     const char *dot = strrchr(path, '.');
     const char *slash = strrchr(path, '/');
     if (!dot || (slash && dot < slash))
-        return mdl__err(err, -EINVAL, "%s: no file extension (expected .c3d, .trc, .bvh or .csv)",
-                        path);
+        return mdl__err(err, -EINVAL, "%s: no file extension (expected .c3d, .trc, .bvh, .csv, "
+                        ".amc or .asf)", path);
     int kind;
     if (strcasecmp(dot, ".c3d") == 0)
         kind = 0;
@@ -89,10 +144,12 @@ int mdl_markers_read(const char *path, const mdl_marker_opts *o, mdl_markers **o
         kind = 2;
     else if (strcasecmp(dot, ".csv") == 0)
         kind = 3;
+    else if (strcasecmp(dot, ".amc") == 0 || strcasecmp(dot, ".asf") == 0)
+        return read_asf_amc(path, dot, o, out, err);
     else
         return mdl__err(err, -EINVAL,
-                        "%s: unknown marker file extension '%s' (expected .c3d, .trc, .bvh or .csv)",
-                        path, dot);
+                        "%s: unknown marker file extension '%s' (expected .c3d, .trc, .bvh, .csv, "
+                        ".amc or .asf)", path, dot);
     char *buf;
     size_t len;
     int r = mdl__read_file(path, MDL__MARKERS_MAX_FILE, &buf, &len, err);

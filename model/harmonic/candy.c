@@ -13,7 +13,13 @@
  * previous frame is the reference (the paper's first remedy, "a previous frame ... as the
  * reference pose"): the child keeps the hemisphere of its own last value, so a twist that passes
  * through 180 deg continues smoothly instead of snapping back. The root keeps its previous frame's
- * hemisphere too (w >= 0 on the first frame). */
+ * hemisphere too (w >= 0 on the first frame).
+ * With a previous frame, every group whose rotation moved by less than ~120 deg since
+ * (|<q, q_prev>| >= MDL_CANDY_PREV) keeps its own hemisphere: the tree decides only on the first
+ * frame, after a reset, and for a group that jumped. Mixing the two rules frame by frame (tree
+ * sign while |<q_c, q_p>| >= MDL_CANDY_EPS, own sign below) flipped a group when the relative
+ * rotation crossed the threshold: 42 of the 47 one-frame pops of the static human hopping
+ * (131_03.bvh) were such flips. */
 #include "harmonic/harmonic_internal.h"
 #include "core/util.h"
 
@@ -89,7 +95,15 @@ int mdl__candy_align(const int *parent, const int *order, int ngroups, double *q
             continue;
         }
         double d = qdot(qg, q + 4 * p);
-        if (fabs(d) < MDL_CANDY_EPS && prev) {
+        double dp = prev ? qdot(qg, prev + 4 * g) : 0;
+        if (prev && fabs(dp) >= MDL_CANDY_PREV) {
+            /* continuity first: the sign of the group's own last value, whatever its parent's
+             * relative rotation (switching rules where |d| crosses MDL_CANDY_EPS made the two
+             * rules disagree and the field jump by a whole limb in one frame) */
+            ambiguous += fabs(d) < MDL_CANDY_EPS;
+            if (dp < 0)
+                qneg(qg);
+        } else if (fabs(d) < MDL_CANDY_EPS && prev) {
             ambiguous++;
             if (qdot(qg, prev + 4 * g) < 0)
                 qneg(qg);

@@ -71,8 +71,103 @@ static int fps(const double *C, const int *cand, int n, int *out, int nseed, int
     return k;
 }
 
+#ifndef RING_AXIS
+#define RING_AXIS 2.0 /* x the mean seed spacing: the neighbourhood whose principal axis a ring is cut across */
+#endif
+#ifndef RING_R
+#define RING_R 0.5    /* x the mean seed spacing: how far a ring reaches from its seed */
+#endif
+
+/* The rings of rings:K (Sec. 4.2's cross-sections, found automatically): for each seed, the
+ * principal axis of the triangle centroids within RING_AXIS x spacing of it (the limb's direction
+ * on a limb), then the triangles reached from the seed through vertex-sharing neighbours whose
+ * centroids lie in the slab through the seed normal to that axis (half-thickness: the mean edge
+ * length) and within RING_R x spacing. lab[t]: the seed of triangle t, or -1; a triangle belongs
+ * to the first ring that reaches it. */
+static int rings_grow(const double *C, const float *rest, const uint32_t *F, int nf, int nv,
+                      const int *seed, int n, double spacing, int *lab, char *err)
+{
+    int *vo = mdl__calloc((size_t)nv + 1, sizeof *vo), *vt = mdl__calloc(3 * (size_t)nf, sizeof *vt);
+    int *queue = mdl__calloc((size_t)nf, sizeof *queue);
+    if (!vo || !vt || !queue) {
+        free(vo), free(vt), free(queue);
+        return mdl__err(err, -ENOMEM, "rings: out of memory");
+    }
+    double elen = 0;
+    for (int t = 0; t < nf; t++)
+        for (int k = 0; k < 3; k++) {
+            vo[F[3 * t + k] + 1]++;
+            const float *a = rest + 3 * F[3 * t + k], *b = rest + 3 * F[3 * t + (k + 1) % 3];
+            elen += sqrt(((double)a[0] - b[0]) * (a[0] - b[0]) + ((double)a[1] - b[1]) * (a[1] - b[1]) +
+                         ((double)a[2] - b[2]) * (a[2] - b[2])) / (3.0 * nf);
+        }
+    for (int v = 0; v < nv; v++)
+        vo[v + 1] += vo[v];
+    for (int t = 0; t < nf; t++)
+        for (int k = 0; k < 3; k++)
+            vt[vo[F[3 * t + k]]++] = t;
+    for (int v = nv; v > 0; v--)
+        vo[v] = vo[v - 1];
+    vo[0] = 0;
+    for (int t = 0; t < nf; t++)
+        lab[t] = -1;
+    for (int i = 0; i < n; i++)
+        lab[seed[i]] = i;
+    double ra2 = RING_AXIS * spacing * RING_AXIS * spacing, rr2 = RING_R * spacing * RING_R * spacing;
+    for (int i = 0; i < n; i++) {
+        const double *c0 = C + 3 * seed[i];
+        double m[3] = {0}, S[9] = {0}, w = 0;
+        for (int t = 0; t < nf; t++)
+            if (d2(C + 3 * t, c0) <= ra2) {
+                for (int a = 0; a < 3; a++)
+                    m[a] += C[3 * t + a];
+                w++;
+            }
+        for (int a = 0; a < 3; a++)
+            m[a] /= w;
+        for (int t = 0; t < nf; t++)
+            if (d2(C + 3 * t, c0) <= ra2)
+                for (int a = 0; a < 3; a++)
+                    for (int b = 0; b < 3; b++)
+                        S[3 * a + b] += (C[3 * t + a] - m[a]) * (C[3 * t + b] - m[b]);
+        /* the principal axis by power iteration */
+        double ax[3] = {1, 1, 1};
+        for (int it = 0; it < 60; it++) {
+            double y[3];
+            for (int a = 0; a < 3; a++)
+                y[a] = S[3 * a] * ax[0] + S[3 * a + 1] * ax[1] + S[3 * a + 2] * ax[2];
+            double l = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+            if (!(l > 0))
+                break;
+            for (int a = 0; a < 3; a++)
+                ax[a] = y[a] / l;
+        }
+        int qh = 0, qt = 0;
+        queue[qt++] = seed[i];
+        while (qh < qt) {
+            int t = queue[qh++];
+            for (int k = 0; k < 3; k++) {
+                int v = (int)F[3 * t + k];
+                for (int j = vo[v]; j < vo[v + 1]; j++) {
+                    int u = vt[j];
+                    if (lab[u] >= 0)
+                        continue;
+                    const double *c = C + 3 * u;
+                    double sd = (c[0] - c0[0]) * ax[0] + (c[1] - c0[1]) * ax[1] + (c[2] - c0[2]) * ax[2];
+                    if (fabs(sd) < elen && d2(c, c0) <= rr2) {
+                        lab[u] = i;
+                        queue[qt++] = u;
+                    }
+                }
+            }
+        }
+    }
+    free(vo), free(vt), free(queue);
+    return 0;
+}
+
 int mdl__corr_auto_k(struct mdl_harmonic *h, const float *rest, const uint32_t *F, int nf, int nv,
-                     int k, char *err)
+                     int k, int rings, char *err)
 {
     if (k < 1 || k > nf)
         return mdl__err(err, -EINVAL, "auto:%d: K must be within 1..%d (the triangles)", k, nf);
@@ -120,7 +215,14 @@ int mdl__corr_auto_k(struct mdl_harmonic *h, const float *rest, const uint32_t *
     }
     double rad2 = AUTO_PATCH * spacing * AUTO_PATCH * spacing;
     int nc = 0;
-    for (int t = 0; t < nf; t++) {
+    if (rings) {
+        rc = rings_grow(C, rest, F, nf, nv, out, n, spacing, cand, err);
+        if (rc)
+            goto done;
+        for (int t = 0; t < nf; t++)
+            nc += cand[t] >= 0;
+    }
+    for (int t = 0; t < nf && !rings; t++) {
         int b = 0;
         double bd = INFINITY;
         for (int i = 0; i < n; i++) {

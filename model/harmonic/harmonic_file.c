@@ -39,9 +39,16 @@ void mdl_harmonic_opts_default(mdl_harmonic_opts *o)
 }
 
 /* the template's rest pose aligned to the target: scale by height, feet on its floor, centres over
- * each other (Sec. 4.1: "both reference poses are roughly aligned a priori") */
+ * each other (Sec. 4.1: "both reference poses are roughly aligned a priori").
+ * Two translations come out of it. The rest pose is overlaid on the target by its own lowest
+ * marker (mk_rest, used for correspondences and bone rest directions). The motion frames are
+ * mapped by align_t, which puts the mocap's floor on the target's floor (Sec. 5, "brings it to a
+ * correct global position"): a BVH or ASF/AMC rest pose has its root at the origin, while its
+ * frames carry the root's height above the mocap's floor, so aligning those frames by the rest
+ * pose's feet would lift the target by the hip height. The floor is the lowest marker over every
+ * frame of `motion` (a hop still touches down), or the rest pose's lowest marker without it. */
 static int align_template(struct mdl_harmonic *h, const mdl_mesh *tg, const mdl_rig *rig,
-                          const mdl_markers *tr, char *err)
+                          const mdl_markers *tr, const mdl_markers *motion, char *err)
 {
     float tlo[3] = {INFINITY, INFINITY, INFINITY}, thi[3] = {-INFINITY, -INFINITY, -INFINITY};
     float mlo[3] = {INFINITY, INFINITY, INFINITY}, mhi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -73,6 +80,24 @@ static int align_template(struct mdl_harmonic *h, const mdl_mesh *tg, const mdl_
     for (int i = 0; i < rig->nmarkers; i++)
         for (int c = 0; c < 3; c++)
             h->mk_rest[3 * i + c] = (float)(s * h->mk_rest[3 * i + c] + h->align_t[c]);
+    if (motion && motion->frames > 0) {
+        /* the mocap's floor: its lowest valid sample of the rig's markers over all frames */
+        double floor = INFINITY;
+        for (int i = 0; i < rig->nmarkers; i++) {
+            int j = mdl_markers_find(motion, rig->markers[i].source);
+            if (j < 0)
+                return mdl__err(err, -EINVAL, "harmonic: the template's motion has no marker '%s' "
+                                "(rig marker '%s')", rig->markers[i].source, rig->markers[i].name);
+            for (int f = 0; f < motion->frames; f++) {
+                size_t at = (size_t)f * (size_t)motion->count + (size_t)j;
+                double y = motion->P[3 * at + 1];
+                if (motion->valid[at] && isfinite(y) && y < floor)
+                    floor = y;
+            }
+        }
+        if (isfinite(floor))
+            h->align_t[1] = (double)tlo[1] - s * floor;
+    }
     return 0;
 }
 
@@ -100,7 +125,8 @@ int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_mar
     int rc = 0;
     mdl_rig *mrig = NULL;
     if (o->auto_k > 0) {
-        rc = mdl__corr_auto_k(h, target->V, target->F, target->nf, target->nv, o->auto_k, err);
+        rc = mdl__corr_auto_k(h, target->V, target->F, target->nf, target->nv, o->auto_k, o->rings,
+                              err);
     } else {
         if ((rc = mdl__rig_copy(rig, &mrig, err)))
             goto fail;
@@ -130,7 +156,7 @@ int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_mar
         for (int b = 0; b < nb && h->root_bone < 0; b++)
             if (h->bone_a[b] == h->root_marker)
                 h->root_bone = b;
-        if ((rc = align_template(h, target, rig, template_rest, err)))
+        if ((rc = align_template(h, target, rig, template_rest, o->template_motion, err)))
             goto fail;
         /* the model's rig: each marker at the target vertex nearest its aligned joint */
         for (int i = 0; i < h->nmk; i++) {

@@ -87,7 +87,8 @@ struct mdl_harmonic {
     int *bone_a, *bone_b, *bone_c;
     int nmk;           /* the rig's markers */
     float *mk_rest;    /* nmk x 3: template rest pose, aligned to the target (Sec. 4.1 "roughly aligned") */
-    double align_scale, align_t[3]; /* template -> target: p' = s p + t */
+    double align_scale, align_t[3]; /* marker frames -> target: p' = s p + t (the mocap's floor
+                                       on the target's floor; mk_rest has its own t) */
     int root_marker, root_bone, anchor_vertex;
     int auto_k;        /* the K of auto:K (0 for a rig's correspondences) */
 };
@@ -128,18 +129,21 @@ void mdl__hdeform_reset(mdl__hdeform *d);
 int mdl__candy_tree(struct mdl_harmonic *h, const double *pos, char *err);
 /* Aligns q (ngroups x 4) in place to one hemisphere per tree edge: each child's sign agrees with
  * its parent's, and where their relative rotation is near 180 deg (|<q_c, q_p>| < MDL_CANDY_EPS,
- * the "w ~ 0" of Sec. 4.3) with its own previous frame instead (prev may be NULL). Returns how
+ * the "w ~ 0" of Sec. 4.3) with its own previous frame instead (prev may be NULL); with prev, a
+ * group near its previous value (|<q, q_prev>| >= MDL_CANDY_PREV) always keeps its sign. Returns how
  * many such ambiguous groups there were. */
 #define MDL_CANDY_EPS 0.1
+#define MDL_CANDY_PREV 0.5 /* |<q, q_prev>| from which a group keeps its own last sign */
 int mdl__candy_align(const int *parent, const int *order, int ngroups, double *q,
                      const double *prev);
 
 /* ------------------------------------------------------------------ correspondences.c (Sec. 4.2) */
 
 /* auto:K on a mesh alone: K triangles by farthest-point sampling of triangle centroids (each
- * connected part gets at least one), each its own group. */
+ * connected part gets at least one), each grown to its own group: a patch around it, or with
+ * `rings` (rings:K) a cross-section ring across the local principal axis. */
 int mdl__corr_auto_k(struct mdl_harmonic *h, const float *rest, const uint32_t *F, int nf, int nv,
-                     int k, char *err);
+                     int k, int rings, char *err);
 /* The bone-driven proposal: every target triangle goes to its nearest bone segment (aligned rest
  * poses); up to per_bone of a bone's triangles with segment parameter in [0.2, 0.8] are chosen by
  * farthest-point sampling. given (may be NULL): per bone a list of user triangles (off/idx as in a

@@ -8,7 +8,8 @@
  *     b - a (swing only: a turn about the bone's own axis is invisible, so a forearm's pronation or
  *     a head turning about the neck axis is lost, and the limb keeps its rest roll);
  *   - with c: the frame (e1 = b - a, e2 = the part of c - a normal to e1, e3 = e1 x e2) at rest and
- *     now gives R = E E0^T, the full rotation; when c - a becomes parallel to the bone, swing only;
+ *     now gives R = E E0^T, the full rotation; as c - a becomes parallel to the bone (|e2| from 15 %
+ *     down to 5 % of |c - a|) it is blended into the swing, and below that swing only;
  *   - an invalid marker is replaced by its last valid position; a bone never seen keeps identity;
  *   - groups = bones (step 1 of Sec. 4.1); the deformer does steps 2-6;
  *   - the global position (Sec. 5, "brings it to a correct global position"): the result is moved so
@@ -50,9 +51,14 @@ static double norm3(double *v)
     return n;
 }
 
-/* the frame of a bone: e1 along a->b, e2 from c (returns 0 when c is missing or degenerate) */
-static int bone_frame(const float *a, const float *b, const float *c, double E[9])
+/* the frame of a bone: e1 along a->b, e2 from c (returns 0 when c is missing or degenerate).
+ * *wt: how far c is from the bone's line, as a weight of the twist (TWIST_LO .. TWIST_HI of |c - a|
+ * map to 0 .. 1) */
+#define TWIST_LO 0.05
+#define TWIST_HI 0.15
+static int bone_frame(const float *a, const float *b, const float *c, double E[9], double *wt)
 {
+    *wt = 0;
     double e1[3], e2[3], e3[3];
     for (int k = 0; k < 3; k++)
         e1[k] = (double)b[k] - a[k];
@@ -69,8 +75,10 @@ static int bone_frame(const float *a, const float *b, const float *c, double E[9
     for (int k = 0; k < 3; k++)
         e2[k] = v[k] - d * e1[k];
     double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (norm3(e2) < 0.05 * l || l <= 0)
+    double n2 = norm3(e2);
+    if (n2 < TWIST_LO * l || l <= 0)
         return 0;
+    *wt = fmin(1.0, (n2 / l - TWIST_LO) / (TWIST_HI - TWIST_LO));
     cross(e1, e2, e3);
     /* columns e1 e2 e3, row-major */
     E[1] = e2[0], E[4] = e2[1], E[7] = e2[2];
@@ -103,23 +111,30 @@ static void swing(const double *d0, const double *d, double q[4])
 void mdl__harmonic_bone_quat(const float *a0, const float *b0, const float *c0, const float *a,
                              const float *b, const float *c, double q[4])
 {
-    double E0[9], E[9];
-    int f0 = bone_frame(a0, b0, c0, E0), f = bone_frame(a, b, c, E);
+    double E0[9], E[9], w0, w;
+    int f0 = bone_frame(a0, b0, c0, E0, &w0), f = bone_frame(a, b, c, E, &w);
     if (f0 < 0 || f < 0) {
         q[0] = 1, q[1] = q[2] = q[3] = 0;
         return;
     }
+    double d0[3] = {E0[0], E0[3], E0[6]}, d[3] = {E[0], E[3], E[6]};
+    swing(d0, d, q);
     if (f0 == 1 && f == 1) {
-        double R[9];
+        double R[9], qf[4];
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
                 R[3 * i + j] = E[3 * i] * E0[3 * j] + E[3 * i + 1] * E0[3 * j + 1] + E[3 * i + 2] * E0[3 * j + 2];
-        mdl__mat_to_quat(R, q);
+        mdl__mat_to_quat(R, qf);
+        mdl__qnorm(qf);
+        /* the twist fades out as c nears the bone's line, where its frame spins: a thigh twisted
+         * by the toe flipped by 170 deg in one frame when the bent leg brought the toe onto the
+         * thigh's axis (131_03.bvh); blended, it passes through the swing instead */
+        double t = fmin(w0, w), dq = q[0] * qf[0] + q[1] * qf[1] + q[2] * qf[2] + q[3] * qf[3];
+        double sg = dq < 0 ? -1 : 1;
+        for (int k = 0; k < 4; k++)
+            q[k] = (1 - t) * q[k] + t * sg * qf[k];
         mdl__qnorm(q);
-        return;
     }
-    double d0[3] = {E0[0], E0[3], E0[6]}, d[3] = {E[0], E[3], E[6]};
-    swing(d0, d, q);
 }
 
 int mdl__harmonic_synth_create(const mdl_model *m, const void *impl, void **state, char *err)

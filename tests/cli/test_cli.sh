@@ -121,6 +121,38 @@ if [ -d "$data/meshes/horse-gallop" ]; then
     fi
 fi
 
+# the harmonic kind's real use (issue 9): the static human driven by CMU BVH and the HDM05 ASF/AMC
+# take, through the command line; contact sheets of the hop, the walk and the HDM05 take in the
+# build directory. tests/model/harmonic/
+# test_human.c checks feet, jitter and triangle areas frame by frame.
+human="$data/meshes/static-human/human_man.obj"
+if [ -f "$human" ] && [ -f "$data/mocap/bvh/cmu/131_03.bvh" ]; then
+    for take in 131_03 131_01 hdm05-dg; do
+        bvh="$data/mocap/bvh/cmu/$take.bvh" rig="$src/rigs/human-cmu-harmonic.json"
+        if [ "$take" = hdm05-dg ]; then
+            bvh="$data/mocap/asf_amc/hdm05/HDM_dg_06-03_03_120.amc" rig="$src/rigs/human-asf-harmonic.json"
+            [ -f "$bvh" ] || continue
+        fi
+        expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$rig" \
+            --template "$bvh" -o "$dir/human.msm"
+        expect_status 0 "$ms" synth --model "$dir/human.msm" --markers "$bvh" -o "$dir/human.pc2" --json
+        cp "$dir/out" "$dir/human.json"
+        [ "$(json_num "$dir/human.json" nonfinite)" = "0" ] || fail "human $take: non-finite values"
+        jo=$(json_num "$dir/human.json" output_jitter) ji=$(json_num "$dir/human.json" input_jitter)
+        awk -v o="$jo" -v i="$ji" 'BEGIN { exit !(o < 2 * i) }' ||
+            fail "human $take: jitter $jo is more than twice its input's ($ji)"
+        # on the floor, not 1.2 m above it (the rest pose's root is at the origin, the frames'
+        # at the hip height)
+        lo=$(grep '"bbox_min"' "$dir/human.json" | grep -o '\[.*\]' | tr -d '[] \t')
+        awk -v lo="$lo" 'BEGIN { split(lo, a, ","); exit !(a[2] > -0.15 && a[2] < 0.15) }' ||
+            fail "human $take: lowest point $lo is not near the floor"
+        n=$(json_num "$dir/human.json" frames)
+        expect_status 0 "$ms" render --mesh "$dir/human.pc2" --rest "$human" --frames "0:$n:$((n / 12))" \
+            -o "${MESHSTEER_BUILD:-$dir}/human-$take-contact-sheet.png"
+        echo "human $take: jitter $jo (input $ji), box from $lo"
+    done
+fi
+
 # issue 4's acceptance: markers from the test camera's depth of the samba dancer (2.5 m, facing)
 if [ -f "$data/meshes/samba/samba.pc2" ]; then
     expect_status 0 "$ms" depth-eval --mesh "$data/meshes/samba/samba.pc2" \

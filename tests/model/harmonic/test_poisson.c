@@ -36,7 +36,7 @@ int main(void)
     struct mdl_harmonic *h = calloc(1, sizeof *h);
     h->nv = nv;
     h->nf = nf;
-    ASSERT_OK(mdl__corr_auto_k(h, m->V, m->F, nf, nv, 40, err), err);
+    ASSERT_OK(mdl__corr_auto_k(h, m->V, m->F, nf, nv, 40, 0, err), err);
     ASSERT_INT_EQ(h->ngroups, 40); /* 40 patches */
     ASSERT(h->ncorr >= 40);
     mdl__hdeform d;
@@ -70,6 +70,28 @@ int main(void)
     ASSERT_INT_EQ(after.hblkhd, before.hblkhd);
     mdl__hdeform_fini(&d);
     mdl__harmonic_free(h);
+
+    /* rings:K on a straight tube: every ring is a whole cross-section (at least `around`
+     * triangles) and thin along the axis (within one ring spacing of its seed) */
+    mdl_mesh *st = htube_create(25, 10);
+    h = calloc(1, sizeof *h);
+    h->nv = nv;
+    h->nf = nf;
+    ASSERT_OK(mdl__corr_auto_k(h, st->V, st->F, nf, nv, 5, 1, err), err);
+    ASSERT_INT_EQ(h->ngroups, 5);
+    int *cnt = calloc(5, sizeof *cnt);
+    for (int i = 0; i < h->ncorr; i++) {
+        const uint32_t *f = st->F + 3 * h->corr_tri[i], *f0 = st->F + 3 * h->corr_tri[h->corr_group[i]];
+        double x = (st->V[3 * f[0]] + st->V[3 * f[1]] + st->V[3 * f[2]]) / 3,
+               x0 = (st->V[3 * f0[0]] + st->V[3 * f0[1]] + st->V[3 * f0[2]]) / 3;
+        ASSERT_LE_I(fabs(x - x0), 2.0 / 24 + 1e-6, i); /* one ring spacing of the tube */
+        cnt[h->corr_group[i]]++;
+    }
+    for (int g = 0; g < 5; g++)
+        ASSERT_INT_GE(cnt[g], 10);
+    free(cnt);
+    mdl__harmonic_free(h);
+    mdl_mesh_destroy(st);
     free(w), free(Rt), free(X), free(qg);
     mdl_mesh_destroy(m);
     puts("poisson: ok");

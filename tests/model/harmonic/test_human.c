@@ -1,0 +1,181 @@
+/* test_human.c - the paper's real use (de Aguiar et al. 2007 Sec. 5): the static human
+ * (static-human/human_man.obj, an SMPL T-pose) animated by CMU BVH takes (131_03 hop, 131_01 walk)
+ * through rigs/human-cmu-harmonic.json and the HDM05 ASF/AMC take (HDM_dg_06-03_03_120.amc)
+ * through rigs/human-asf-harmonic.json, with automatic correspondences. Per take:
+ *   - no non-finite vertex;
+ *   - global position (Sec. 5): the lowest vertex of every frame within FLOOR_MAX of the mocap's
+ *     lowest foot marker (ankles, toes and their end sites) mapped into the target's space; the
+ *     template was once aligned by its rest pose (root at the origin) while the frames carry the
+ *     hip height, and the man floated 1.2 m above the floor;
+ *   - smoothness: the output's frame-to-frame jitter (mean |speed change| / mean speed) within
+ *     JITTER_X times the input markers' (a flip of the candy-wrapper signs or of a bone's twist
+ *     frame shows as a one-frame pop; they made it 13x);
+ *   - per-triangle area change (area / rest area over all frames and triangles): the distribution
+ *     is printed (volume loss at knees and elbows is the paper's own limitation) and its 0.1 % and
+ *     99.9 % quantiles bounded.
+ * The result is written as $MESHSTEER_BUILD/human-<take>.pc2 (tests/cli/test_cli.sh draws the
+ * contact sheets with meshsteer render). Skips (77) without ../shared/data. */
+#include "harmonic/harmonic_internal.h"
+#include "kind.h"
+#include "test.h"
+
+/* Measured (this branch): mean 7-8 cm, max 18-20 cm. Not "a few cm" yet: the template's rest pose
+ * (CMU: legs spread ~20 deg, arms down) is not the target's (SMPL T-pose), and every bone's rotation
+ * is taken from the template's rest direction, so a vertical mocap leg leaves the target's leg
+ * shorter than the hip height it is hung from (docs/MODEL.md). The bounds catch the old 1.2 m. */
+#define FLOOR_MEAN 0.10 /* m */
+#define FLOOR_MAX 0.25  /* m */
+#define JITTER_X 2.0
+
+static int cmpf(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+static double tri_area(const float *V, const uint32_t *f)
+{
+    double e1[3], e2[3];
+    for (int c = 0; c < 3; c++) {
+        e1[c] = (double)V[3 * f[1] + c] - V[3 * f[0] + c];
+        e2[c] = (double)V[3 * f[2] + c] - V[3 * f[0] + c];
+    }
+    double x = e1[1] * e2[2] - e1[2] * e2[1], y = e1[2] * e2[0] - e1[0] * e2[2],
+           z = e1[0] * e2[1] - e1[1] * e2[0];
+    return 0.5 * sqrt(x * x + y * y + z * z);
+}
+
+static int is_foot(const char *n)
+{
+    return strcasestr(n, "toe") || strcasestr(n, "ankle") || strcasestr(n, "foot") ||
+           strcasestr(n, "tibia"); /* an ASF tibia's far end is the ankle */
+}
+
+/* mean |s(f) - s(f-1)| / mean s over frames 1..n-1 (cmd_synth.c's definition) */
+static double jitter(const double *sp, int n)
+{
+    double d = 0, m = 0;
+    for (int f = 1; f < n; f++)
+        m += sp[f];
+    for (int f = 2; f < n; f++)
+        d += fabs(sp[f] - sp[f - 1]);
+    return m > 0 ? (d / (n - 2)) / (m / (n - 1)) : 0;
+}
+
+static void run_take(const mdl_mesh *target, const mdl_rig *rig, const char *take, const char *rel)
+{
+    char err[MDL_ERR_LEN] = "";
+    const char *bvh = test_data(rel);
+    mdl_marker_opts mo = {0};
+    mdl_markers *rest = NULL, *mk = NULL;
+    mo.rest = 1;
+    ASSERT_OK(mdl_markers_read(bvh, &mo, &rest, err), err);
+    mo.rest = 0;
+    ASSERT_OK(mdl_markers_read(bvh, &mo, &mk, err), err);
+    mdl_harmonic_opts o;
+    mdl_harmonic_opts_default(&o);
+    o.template_motion = mk;
+    mdl_model *m = NULL;
+    ASSERT_OK(mdl_harmonic_build(target, rig, rest, &o, &m, err), err);
+    const struct mdl_harmonic *h = mdl__model_kind(m, MDL_KIND_HARMONIC)->impl;
+    mdl_model_info info;
+    mdl_model_get_info(m, &info);
+    int nmk = info.nmarkers, nv = info.nv, nf = info.nf, nfr = mk->frames;
+    int *map = calloc((size_t)nmk, sizeof *map);
+    ASSERT_INT_EQ(mdl_model_bind_markers(m, (const char *const *)mk->names, mk->count, map), 0);
+    /* the lowest foot marker of the whole file, any label with Toe/Ankle/Foot */
+    mdl_synth *s = NULL;
+    ASSERT_OK(mdl_synth_create(m, 0, &s, err), err);
+    float *in = calloc(3 * (size_t)nmk, sizeof *in), *out = calloc(3 * (size_t)nv * nfr, sizeof *out);
+    float *ratio = calloc((size_t)nf * ((nfr + 9) / 10), sizeof *ratio);
+    double *a0 = calloc((size_t)nf, sizeof *a0), *spo = calloc((size_t)nfr, sizeof *spo),
+           *spi = calloc((size_t)nfr, sizeof *spi);
+    ASSERT(map && in && out && ratio && a0 && spo && spi);
+    for (int t = 0; t < nf; t++)
+        a0[t] = tri_area(info.rest, info.F + 3 * t);
+    double gap_max = 0, gap_sum = 0;
+    int gap_at = -1, nratio = 0;
+    for (int f = 0; f < nfr; f++) {
+        const float *P = mk->P + 3 * (size_t)f * mk->count;
+        for (int i = 0; i < nmk; i++)
+            memcpy(in + 3 * i, P + 3 * map[i], 3 * sizeof *in);
+        float *V = out + 3 * (size_t)nv * f;
+        ASSERT_OK(mdl_synth_markers(s, in, NULL, V, NULL), take);
+        double lo = INFINITY, foot = INFINITY;
+        for (int v = 0; v < nv; v++) {
+            for (int c = 0; c < 3; c++)
+                ASSERT(isfinite(V[3 * v + c]));
+            lo = V[3 * v + 1] < lo ? V[3 * v + 1] : lo;
+        }
+        for (int j = 0; j < mk->count; j++)
+            if (is_foot(mk->names[j]))
+                foot = fmin(foot, h->align_scale * P[3 * j + 1] + h->align_t[1]);
+        ASSERT(isfinite(foot));
+        double gap = fabs(lo - foot);
+        if (getenv("HUMAN_DEBUG"))
+            fprintf(stderr, "%d lo %.4f foot %.4f\n", f, lo, foot);
+        gap_sum += gap;
+        if (gap > gap_max)
+            gap_max = gap, gap_at = f;
+        if (f > 0) {
+            const float *U = V - 3 * (size_t)nv, *Q = mk->P + 3 * (size_t)(f - 1) * mk->count;
+            for (int v = 0; v < nv; v++)
+                spo[f] += sqrt(((double)V[3 * v] - U[3 * v]) * (V[3 * v] - U[3 * v]) +
+                               ((double)V[3 * v + 1] - U[3 * v + 1]) * (V[3 * v + 1] - U[3 * v + 1]) +
+                               ((double)V[3 * v + 2] - U[3 * v + 2]) * (V[3 * v + 2] - U[3 * v + 2])) / nv;
+            for (int j = 0; j < mk->count; j++)
+                spi[f] += h->align_scale *
+                          sqrt(((double)P[3 * j] - Q[3 * j]) * (P[3 * j] - Q[3 * j]) +
+                               ((double)P[3 * j + 1] - Q[3 * j + 1]) * (P[3 * j + 1] - Q[3 * j + 1]) +
+                               ((double)P[3 * j + 2] - Q[3 * j + 2]) * (P[3 * j + 2] - Q[3 * j + 2])) /
+                          mk->count;
+        }
+        if (f % 10 == 0)
+            for (int t = 0; t < nf; t++)
+                ratio[nratio++] = a0[t] > 0 ? (float)(tri_area(V, info.F + 3 * t) / a0[t]) : 1.0f;
+    }
+    qsort(ratio, (size_t)nratio, sizeof *ratio, cmpf);
+    double jo = jitter(spo, nfr), ji = jitter(spi, nfr);
+#define Q_(p) ratio[(size_t)((p) * (nratio - 1))]
+    printf("%s: %d frames; lowest vertex vs lowest foot marker: mean %.4f m, max %.4f m (frame %d)\n"
+           "%s: jitter output %.4f input %.4f (x%.2f)\n"
+           "%s: triangle area / rest area over every 10th frame: min %.3f p0.1 %.3f p1 %.3f p5 %.3f "
+           "p50 %.3f p95 %.3f p99 %.3f p99.9 %.3f max %.3f\n",
+           take, nfr, gap_sum / nfr, gap_max, gap_at, take, jo, ji, ji > 0 ? jo / ji : 0, take,
+           Q_(0.0), Q_(0.001), Q_(0.01), Q_(0.05), Q_(0.5), Q_(0.95), Q_(0.99), Q_(0.999), Q_(1.0));
+    ASSERT_LE(gap_sum / nfr, FLOOR_MEAN);
+    ASSERT_LE(gap_max, FLOOR_MAX);
+    ASSERT_LE(jo, JITTER_X * ji);
+    ASSERT_GE(Q_(0.001), 0.1);
+    ASSERT_LE(Q_(0.999), 2.0);
+#undef Q_
+    const char *bd = getenv("MESHSTEER_BUILD");
+    if (bd) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/human-%s.pc2", bd, take);
+        ASSERT_OK(mdl_pc2_write(path, out, nv, nfr, 0, (float)mk->fps, err), err);
+        printf("%s: wrote %s\n", take, path);
+    }
+    free(map), free(in), free(out), free(ratio), free(a0), free(spo), free(spi);
+    mdl_synth_destroy(s);
+    mdl_model_destroy(m);
+    mdl_markers_destroy(rest);
+    mdl_markers_destroy(mk);
+}
+
+int main(void)
+{
+    char err[MDL_ERR_LEN] = "";
+    mdl_mesh *target = NULL;
+    mdl_rig *rig = NULL, *arig = NULL;
+    ASSERT_OK(mdl_mesh_read_obj(test_data("meshes/static-human/human_man.obj"), &target, err), err);
+    ASSERT_OK(mdl_rig_read(test_src("rigs/human-cmu-harmonic.json"), 0, &rig, err), err);
+    ASSERT_OK(mdl_rig_read(test_src("rigs/human-asf-harmonic.json"), 0, &arig, err), err);
+    run_take(target, rig, "131_03", "mocap/bvh/cmu/131_03.bvh");
+    run_take(target, rig, "131_01", "mocap/bvh/cmu/131_01.bvh");
+    run_take(target, arig, "hdm05-dg", "mocap/asf_amc/hdm05/HDM_dg_06-03_03_120.amc");
+    mdl_rig_destroy(rig);
+    mdl_rig_destroy(arig);
+    mdl_mesh_destroy(target);
+    return 0;
+}
