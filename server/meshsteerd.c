@@ -41,12 +41,9 @@ static void usage(FILE *f)
             "usage: meshsteerd --model MODEL --source SPEC [OPTIONS]\n\n"
             "Streams meshes synthesised from a marker source to WebSocket clients.\n\n"
             "  -m, --model FILE        trained model (meshsteer train)\n"
-            "  -s, --source SPEC       replay:FILE[?loop=1&speed=1&start=0] (.c3d .trc .bvh .amc .csv)
-"
-            "  -l, --listen ADDR:PORT  default 127.0.0.1:8080, exactly that address ([::1]:PORT for IPv6;
-"
-            "                          port 0: any free port)
-"
+            "  -s, --source SPEC       replay:FILE[?loop=1&speed=1&start=0] (.c3d .trc .bvh .amc .csv)\n"
+            "  -l, --listen ADDR:PORT  default 127.0.0.1:8080, exactly that address ([::1]:PORT for IPv6;\n"
+            "                          port 0: any free port)\n"
             "  -c, --config FILE       'key = value' settings; flags override them\n"
             "      --record OUT.c3d    also write the incoming markers to a C3D file\n"
             "      --max-clients N     default 256\n"
