@@ -474,6 +474,14 @@ double mdl_variations_cost(const mdl_variations *v, int i, int j);
  * -ENOENT when the graph has no frame a walk can go on for ever from (no transitions). */
 int mdl_variations_walk(const mdl_variations *v, uint64_t seed, int frames, double *T, float *V,
                         int *src, char *err);
+/* Makes the skin of m play an endless random walk (seed, o: NULL for defaults) on its example's
+ * transition graph instead of looping the fitted frames: mdl_synth_create of the skin kind then
+ * rebuilds the graph, and mdl_synth_frame at clock t shows the walk's frame t x fps (the
+ * daemon's idle source). Stored in the model file (the SKIN chunk, docs/FORMATS.md). -ENOENT
+ * without a skin; the errors of mdl_variations_build, and -ENOENT when no walk can go on. */
+int mdl_variations_attach(mdl_model *m, const mdl_variations_opts *o, uint64_t seed, char *err);
+/* 1 when the skin of m walks (*o, *seed filled; either may be NULL), else 0. */
+int mdl_variations_attached(const mdl_model *m, mdl_variations_opts *o, uint64_t *seed);
 
 /* A Python-style slice (frames.c) "start:stop[:step]" (also "N" and ":"), resolved against `count`.
  * Allocates *idx. */

@@ -18,6 +18,7 @@
 
 static const char usage_text[] =
     "usage: meshsteer variations --model SKIN.msm --count N --frames F [options] -o OUT_DIR\n"
+    "       meshsteer variations --add-to MODEL.msm [options]\n"
     "\n"
     "Synthesises N different animations of F frames each from the example a skin was fitted to\n"
     "(`meshsteer skin`; Zheng 2013): transitions between frames whose bone poses, seen from the\n"
@@ -38,6 +39,10 @@ static const char usage_text[] =
     "  --min-segment N       frames between transitions at least (default 8)\n"
     "  --start FRAME         every walk starts at this fitted frame (default: by its seed)\n"
     "  -o OUT_DIR            directory for the PC2 files (created)\n"
+    "  --add-to MODEL.msm    make the skin in MODEL.msm play an endless random walk (the given\n"
+    "                        options, --seed S) instead of looping its frames, and rewrite the\n"
+    "                        file: the daemon's idle source then walks. --model defaults to it;\n"
+    "                        --count, --frames and -o are then optional\n"
     "  --json                print bones, frames, ref_bone, rank, alpha, beta, max_adjacent,\n"
     "                        tc, transitions, the transition list (from, to, cost),\n"
     "                        example_max_jump, synth_s and per variation its file, transitions\n"
@@ -103,18 +108,19 @@ static double example_jump(const mdl_model *m)
 
 int cmd_variations(int argc, char **argv)
 {
-    const char *cmd = "variations", *modelp = NULL, *outdir = NULL;
+    const char *cmd = "variations", *modelp = NULL, *outdir = NULL, *addto = NULL;
     int count = 0, frames = 0, seed = 1, json = 0;
     mdl_variations_opts vo;
     mdl_variations_opts_default(&vo);
     enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_JUMP, O_TEMP,
-           O_MINSEG, O_START, O_JSON };
+           O_MINSEG, O_START, O_JSON, O_ADD };
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},         {"count", 1, 0, O_COUNT},   {"frames", 1, 0, O_FRAMES},
         {"seed", 1, 0, O_SEED},           {"threshold", 1, 0, O_THRESH},
         {"tc-factor", 1, 0, O_TCF},       {"blend", 1, 0, O_BLEND},   {"jump-prob", 1, 0, O_JUMP},
         {"temperature", 1, 0, O_TEMP},    {"min-segment", 1, 0, O_MINSEG},
         {"start", 1, 0, O_START},         {"json", 0, 0, O_JSON},     {"help", 0, 0, 'h'},
+        {"add-to", 1, 0, O_ADD},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -132,6 +138,7 @@ int cmd_variations(int argc, char **argv)
         case O_MINSEG: if (cli_parse_int(cmd, "--min-segment", optarg, &vo.min_segment)) return CLI_EXIT_USAGE; break;
         case O_START: if (cli_parse_int(cmd, "--start", optarg, &vo.start)) return CLI_EXIT_USAGE; break;
         case O_JSON: json = 1; break;
+        case O_ADD: addto = optarg; break;
         case 'o': outdir = optarg; break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
         default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
@@ -139,9 +146,12 @@ int cmd_variations(int argc, char **argv)
     }
     if (optind < argc)
         return cli_usage_error(cmd, "unexpected argument '%s'", argv[optind]);
-    if (!modelp || !outdir || count < 1 || frames < 1)
+    if (!modelp)
+        modelp = addto;
+    int batch = !addto || outdir || count || frames;
+    if (!modelp || (batch && (!outdir || count < 1 || frames < 1)))
         return cli_usage_error(cmd, "--model, --count (>= 1), --frames (>= 1) and -o are required "
-                               "(see --help)");
+                               "(or --add-to alone; see --help)");
     if (count > 100000 || frames > 10000000 || (double)count * frames > 1e9)
         return cli_usage_error(cmd, "--count x --frames is too large");
     if (vo.threshold < 0 || !(vo.tc_factor > 0) || vo.blend < 0 || !(vo.jump_prob >= 0) ||
@@ -188,6 +198,27 @@ int cmd_variations(int argc, char **argv)
     }
     mdl_variations_stats st;
     mdl_variations_get_stats(v, &st);
+    if (addto) {
+        mdl_model *dst = NULL;
+        rc = strcmp(addto, modelp) ? mdl_model_load(addto, &dst, err) : 0;
+        if (!rc)
+            rc = mdl_variations_attach(dst ? dst : model, &vo, (uint64_t)(unsigned)seed, err);
+        if (!rc && mdl_model_save(dst ? dst : model, addto, err))
+            rc = CLI_EXIT_FAIL;
+        mdl_model_destroy(dst);
+        if (rc) {
+            status = rc == CLI_EXIT_FAIL ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
+            cli_fail(cmd, status, "--add-to %s: %s", addto, err);
+            goto out;
+        }
+        if (!batch) {
+            if (json)
+                printf("{\n\t\"transitions\":\t%d,\n\t\"tc\":\t%.17g,\n\t\"alive_frames\":\t%d\n}\n",
+                       st.transitions, st.tc, st.alive_frames);
+            status = CLI_EXIT_OK;
+            goto out;
+        }
+    }
     if (mkdir(outdir, 0777) != 0 && errno != EEXIST) {
         status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", outdir, strerror(errno));
         goto out;

@@ -23,6 +23,7 @@
  * Analysis, not a per-frame path: it allocates freely. */
 #include "variations/variations.h"
 #include "kind.h"
+#include "skin/skin_internal.h"
 #include "core/linalg.h"
 #include "core/util.h"
 
@@ -358,4 +359,40 @@ out:
     }
     *out = v;
     return 0;
+}
+
+int mdl_variations_attach(mdl_model *m, const mdl_variations_opts *o, uint64_t seed, char *err)
+{
+    const mdl_kind_slot *slot = mdl__model_kind(m, MDL_KIND_SKIN);
+    if (!slot)
+        return mdl__err(err, -ENOENT, "variations: the model holds no skin");
+    mdl_variations *v = NULL;
+    int rc = mdl_variations_build(m, o, &v, err);
+    if (rc)
+        return rc;
+    int alive = v->nalive;
+    double tc = v->tc;
+    mdl_variations_opts vo = v->o;
+    mdl_variations_destroy(v);
+    if (alive < 1)
+        return mdl__err(err, -ENOENT,
+                        "variations: no transitions (T_c %.4g): the example cannot be extended", tc);
+    struct mdl_skin *k = slot->impl;
+    k->has_vars = 1;
+    k->vars = vo;
+    k->vars_seed = seed;
+    return 0;
+}
+
+int mdl_variations_attached(const mdl_model *m, mdl_variations_opts *o, uint64_t *seed)
+{
+    const mdl_kind_slot *slot = mdl__model_kind(m, MDL_KIND_SKIN);
+    const struct mdl_skin *k = slot ? slot->impl : NULL;
+    if (!k || !k->has_vars)
+        return 0;
+    if (o)
+        *o = k->vars;
+    if (seed)
+        *seed = k->vars_seed;
+    return 1;
 }

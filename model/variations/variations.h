@@ -88,6 +88,8 @@ typedef struct mdl__vwalk {
 
 int mdl__vwalk_init(mdl__vwalk *w, const struct mdl_variations *v, uint64_t seed, char *err);
 void mdl__vwalk_fini(mdl__vwalk *w);
+/* Back to the start of the walk of `seed` (no allocation). */
+void mdl__vwalk_reset(mdl__vwalk *w, uint64_t seed);
 /* Writes the next output frame's bone transforms (nb x 12) and returns its input frame. */
 int mdl__vwalk_step(mdl__vwalk *w, double *T);
 /* Skins one frame: V (nv x 3) from bone transforms T (nb x 12). */

@@ -32,6 +32,14 @@ int mdl__vwalk_init(mdl__vwalk *w, const struct mdl_variations *v, uint64_t seed
     if (mdl__vblend_init(&w->b, v))
         return mdl__err(err, -ENOMEM, "variations: out of memory");
     w->v = v;
+    mdl__vwalk_reset(w, seed);
+    return 0;
+}
+
+void mdl__vwalk_reset(mdl__vwalk *w, uint64_t seed)
+{
+    const struct mdl_variations *v = w->v;
+    mdl__vblend_reset(&w->b, v);
     w->rng = seed ^ 0x9e3779b97f4a7c15ull;
     int start = v->o.start;
     if (start < 0 || !v->alive[start]) {
@@ -44,7 +52,6 @@ int mdl__vwalk_init(mdl__vwalk *w, const struct mdl_variations *v, uint64_t seed
     }
     w->cur = start;
     w->seg = 0;
-    return 0;
 }
 
 void mdl__vwalk_fini(mdl__vwalk *w)

@@ -2,7 +2,7 @@
 # test_variations.sh - `meshsteer variations` end to end (Zheng 2013, model/variations/): usage,
 # a model without a skin refused, on the built-in example's skin N PC2 files of F frames that are
 # the same for the same seed and differ across seeds, with no frame-to-frame vertex jump above 3x
-# the example's own; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames with
+# the example's own; --add-to makes a model's skin walk; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames with
 # the same bound. Usage: test_variations.sh MESHSTEER SRC DATA
 set -euo pipefail
 ms=$1 src=$2 data=$3
@@ -56,6 +56,19 @@ cmp -s "$dir/a/variation_000.pc2" "$dir/b/variation_000.pc2" || fail "seed 5 gav
 cmp -s "$dir/a/variation_001.pc2" "$dir/b/variation_001.pc2" || fail "seed 6 gave two animations"
 ! cmp -s "$dir/a/variation_000.pc2" "$dir/a/variation_001.pc2" || fail "seeds 5 and 6 gave one animation"
 ! cmp -s "$dir/a/variation_001.pc2" "$dir/a/variation_002.pc2" || fail "seeds 6 and 7 gave one animation"
+
+# --add-to: the skin beside a steering model walks (the daemon's idle source); a steering model
+# alone is refused
+expect_status 2 "$ms" variations --add-to "$dir/steer.msm"
+grep -q "holds no skin" "$dir/err" || fail "--add-to a model without a skin is not refused"
+expect_status 0 "$ms" skin --mesh "$dir/ex/mesh" --bones 8 --threads 1 --add-to "$dir/steer.msm" -o "$dir/both.msm"
+expect_status 0 "$ms" inspect "$dir/both.msm"
+grep -q "the fitted frames, looping" "$dir/out" || { cat "$dir/out"; fail "a new skin does not loop"; }
+expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --json
+[ "$(json_num "$dir/out" transitions)" -gt 0 ] || fail "--add-to --json: no transitions"
+expect_status 0 "$ms" inspect "$dir/both.msm"
+grep -q "steer (primary), skin" "$dir/out" || { cat "$dir/out"; fail "inspect does not list both kinds"; }
+grep -q "endless random walk.*seed 9" "$dir/out" || { cat "$dir/out"; fail "the skin does not walk"; }
 
 horse=$data/meshes/horse-gallop
 if [ ! -d "$horse" ]; then echo "skip: $horse not found (real-data part)"; exit 0; fi

@@ -5,7 +5,10 @@
  * bone transforms stay rigid. Then horse-gallop (48 frames, a 22-bone skin; skip 77 if absent):
  * the cheapest transition from every frame joins corresponding frames of the two cycles and with
  * T_c between the two groups those are all (as the paper says, a single component finds no
- * variation); walks of 336 frames under the paper's T_c keep the same jump bound. */
+ * variation); walks of 336 frames under the paper's T_c keep the same jump bound. And the skin's
+ * clock synthesis with variations attached (model/skin/play.c): through a model file round trip
+ * it plays the walk of its seed frame by frame, past the example's end, and again from the start
+ * when the clock goes back. */
 #include "model.h"
 #include "test.h"
 #include "looping.h"
@@ -122,6 +125,73 @@ static void test_looping(void)
     mdl_meshseq_destroy(s);
 }
 
+static void test_play(void)
+{
+    char err[MDL_ERR_LEN] = "";
+    mdl_meshseq *s = lp_sequence(60, 20);
+    int idx[60];
+    for (int i = 0; i < 60; i++)
+        idx[i] = i;
+    mdl_skin_opts so;
+    mdl_skin_opts_default(&so);
+    so.bones = 3;
+    mdl_model *m = NULL;
+    ASSERT_OK(mdl_skin_fit(s, idx, 60, &so, &m, err), err);
+    ASSERT_INT_EQ(mdl_variations_attached(m, NULL, NULL), 0);
+    mdl_variations_opts o;
+    mdl_variations_opts_default(&o);
+    o.jump_prob = 0.5;
+    ASSERT_OK(mdl_variations_attach(m, &o, 42, err), err);
+    const char *path = "test_walk_vars.msm";
+    ASSERT_OK(mdl_model_save(m, path, err), err);
+    mdl_model *m2 = NULL;
+    ASSERT_OK(mdl_model_load(path, &m2, err), err);
+    remove(path);
+    mdl_variations_opts o2;
+    uint64_t seed = 0;
+    ASSERT_INT_EQ(mdl_variations_attached(m2, &o2, &seed), 1);
+    ASSERT(seed == 42);
+    ASSERT_NEAR(o2.jump_prob, 0.5, 0);
+    ASSERT_INT_EQ(o2.blend, o.blend);
+
+    const int F = 200;
+    mdl_variations *v = NULL;
+    ASSERT_OK(mdl_variations_build(m2, &o2, &v, err), err);
+    mdl_model_info info;
+    mdl_model_get_info(m2, &info);
+    double *T = calloc((size_t)F * 3 * 12, sizeof *T);
+    float *W = calloc((size_t)F * info.nv * 3, sizeof *W), *V = calloc(3 * (size_t)info.nv, sizeof *V);
+    int src[200];
+    ASSERT_OK(mdl_variations_walk(v, 42, F, T, W, src, err), err);
+    int taken = 0;
+    for (int f = 1; f < F; f++)
+        taken += src[f] != src[f - 1] + 1;
+    ASSERT_INT_GT(taken, 3);
+    mdl_synth *sy = NULL;
+    ASSERT_OK(mdl_synth_create(m2, MDL_KIND_SKIN, &sy, err), err);
+    double worst = 0;
+    for (int pass = 0; pass < 2; pass++) /* the second pass: the clock went back */
+        for (int f = 0; f < F; f += pass ? 7 : 1) {
+            mdl_synth_input in = {.t = (f + 1e-9) / info.fps};
+            ASSERT_INT_EQ(mdl_synth_frame(sy, &in, V, NULL), 0);
+            for (int i = 0; i < 3 * info.nv; i++) {
+                double d = fabs(V[i] - W[3 * (size_t)f * info.nv + i]);
+                worst = d > worst ? d : worst;
+                ASSERT_NEAR_I(V[i], W[3 * (size_t)f * info.nv + i], 1e-4, f);
+            }
+        }
+    printf("play: the clock synthesis follows the walk of seed 42 over %d frames (%d transitions, "
+           "60 fitted frames) within %.2g\n", F, taken, worst);
+    mdl_synth_destroy(sy);
+    mdl_variations_destroy(v);
+    free(T);
+    free(W);
+    free(V);
+    mdl_model_destroy(m2);
+    mdl_model_destroy(m);
+    mdl_meshseq_destroy(s);
+}
+
 static void test_horse(void)
 {
     char err[MDL_ERR_LEN] = "";
@@ -203,6 +273,7 @@ int main(void)
 {
     mdl_set_blas_threads(1);
     test_looping();
+    test_play();
     test_horse();
     printf("walk: ok\n");
     return 0;
