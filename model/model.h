@@ -458,7 +458,7 @@ typedef struct mdl_variations_stats {
 } mdl_variations_stats;
 
 /* The transition graph of the skin in m (-ENOENT when m holds none; -EDOM with fewer than 4
- * frames). o may be NULL for defaults. Allocates *out (mdl_variations_destroy); m may be
+ * frames or more than 16384, or fewer than 2 bones). o may be NULL for defaults. Allocates *out (mdl_variations_destroy); m may be
  * destroyed afterwards (the graph keeps what it needs). */
 int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_variations **out,
                          char *err);

@@ -296,6 +296,8 @@ int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_v
         return mdl__err(err, -EDOM, "variations: the skin has %d frames; at least 4 are needed", N);
     if (nb < 2)
         return mdl__err(err, -EDOM, "variations: the skin has %d bone; at least 2 are needed", nb);
+    if (N > 16384) /* D is N x N doubles */
+        return mdl__err(err, -EDOM, "variations: the skin has %d frames; at most 16384", N);
     mdl_model_info info;
     mdl_model_get_info(m, &info);
     struct mdl_variations *v = mdl__calloc(1, sizeof *v);
