@@ -146,7 +146,32 @@ static void test_play(void)
     ASSERT_OK(mdl_model_save(m, path, err), err);
     mdl_model *m2 = NULL;
     ASSERT_OK(mdl_model_load(path, &m2, err), err);
+    /* the trailer (68 bytes, last in the SKIN chunk before the 8-byte END chunk) is checked: a
+     * flag other than 1, or a jump_prob above 1, is refused with a message */
+    FILE *fp = fopen(path, "rb");
+    ASSERT(fp != NULL);
+    fseek(fp, 0, SEEK_END);
+    long len = ftell(fp);
+    uint8_t *buf = malloc((size_t)len);
+    fseek(fp, 0, SEEK_SET);
+    ASSERT(fread(buf, 1, (size_t)len, fp) == (size_t)len);
+    fclose(fp);
     remove(path);
+    size_t tr = (size_t)len - 8 - 68;
+    ASSERT_INT_EQ(buf[tr], 1);
+    mdl_model *bad = NULL;
+    buf[tr] = 2;
+    ASSERT_INT_NE(mdl_model_parse(buf, (size_t)len, "flag", &bad, err), 0);
+    printf("trailer flag 2: %s\n", err);
+    ASSERT(strstr(err, "variations flag") != NULL);
+    buf[tr] = 1;
+    double big = 2;
+    memcpy(buf + tr + 4 + 3 * 8 + 2 * 4, &big, sizeof big); /* jump_prob */
+    ASSERT_INT_NE(mdl_model_parse(buf, (size_t)len, "jump", &bad, err), 0);
+    printf("jump_prob 2: %s\n", err);
+    ASSERT(strstr(err, "variations options out of range") != NULL);
+    ASSERT(bad == NULL);
+    free(buf);
     mdl_variations_opts o2;
     uint64_t seed = 0;
     ASSERT_INT_EQ(mdl_variations_attached(m2, &o2, &seed), 1);
