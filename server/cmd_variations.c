@@ -2,7 +2,8 @@
  * example a skin was fitted to (Zheng 2013, model.h "variations"): the transition graph of the
  * skin, N random walks of F frames, each written as a PC2 point cache of the skinned mesh, and
  * with --json the graph's figures and, per variation, its largest frame-to-frame vertex jump
- * beside the example's own (the skin's fitted frames, skinned). Serial: a walk of the horse's 22
+ * beside the example's own (the skin's fitted frames, skinned) and the largest vertex
+ * acceleration near its transitions beside the 99th percentile of the example's. Serial: a walk of the horse's 22
  * bones costs microseconds per frame; the skinning dominates. */
 #include "cli.h"
 
@@ -45,8 +46,13 @@ static const char usage_text[] =
     "                        --count, --frames and -o are then optional\n"
     "  --json                print bones, frames, ref_bone, rank, alpha, beta, max_adjacent,\n"
     "                        tc, transitions, the transition list (from, to, cost),\n"
-    "                        example_max_jump, synth_s and per variation its file, transitions\n"
-    "                        taken, max_jump and max_jump_ratio (to the example's)\n";
+    "                        example_max_jump, example_p99_accel and example_max_accel (the\n"
+    "                        99th percentile and the largest of the example's vertex\n"
+    "                        accelerations), synth_s and per variation its\n"
+    "                        file, transitions taken, max_jump and max_jump_ratio (to the\n"
+    "                        example's), transition_max_accel (the largest vertex acceleration\n"
+    "                        within 3 frames of a transition) and transition_accel_ratio (to the\n"
+    "                        example's 99th percentile)\n";
 
 static double max_jump(const float *V, int nv, int frames)
 {
@@ -62,48 +68,81 @@ static double max_jump(const float *V, int nv, int frames)
     return sqrt(mx);
 }
 
-/* the largest vertex jump between consecutive fitted frames of the skin, skinned */
-static double example_jump(const mdl_model *m)
+static int cmp_float(const void *a, const void *b)
 {
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+/* the largest vertex acceleration |V(f+1) - 2 V(f) + V(f-1)| at output frame f (1..frames-2) */
+static double accel_at(const float *V, int nv, int f)
+{
+    double mx = 0;
+    for (int i = 0; i < nv; i++) {
+        double d = 0;
+        for (int c = 0; c < 3; c++) {
+            size_t k = 3 * (size_t)i + c;
+            double a = (double)V[3 * (size_t)(f + 1) * nv + k] - 2.0 * V[3 * (size_t)f * nv + k] +
+                       V[3 * (size_t)(f - 1) * nv + k];
+            d += a * a;
+        }
+        mx = d > mx ? d : mx;
+    }
+    return sqrt(mx);
+}
+
+/* The example as the skin reproduces it (its fitted frames, skinned): the largest vertex jump
+ * between consecutive frames, and the 99th percentile of the vertex accelerations over all
+ * vertices and interior frames (the issue's smoothness reference) and their maximum. 0 when not
+ * computable. */
+static void example_motion(const mdl_model *m, double *jump, double *p99, double *amax)
+{
+    *jump = *p99 = *amax = 0;
     int nb, K, N;
     const int *bone;
     const double *w, *T;
-    if (mdl_skin_get(m, &nb, &K, &N, &bone, &w, &T) || N < 2)
-        return 0;
+    if (mdl_skin_get(m, &nb, &K, &N, &bone, &w, &T) || N < 3)
+        return;
     mdl_model_info info;
     mdl_model_get_info(m, &info);
-    float *V = calloc(2 * (size_t)info.nv * 3, sizeof *V);
-    if (!V)
-        return 0;
-    double mx = 0;
-    for (int f = 0; f < N; f++) {
-        float *cur = V + 3 * (size_t)info.nv * (f & 1);
+    float *V = calloc((size_t)N * info.nv * 3, sizeof *V);
+    float *acc = calloc((size_t)(N - 2) * info.nv, sizeof *acc);
+    if (!V || !acc) {
+        free(V);
+        free(acc);
+        return;
+    }
+    for (int f = 0; f < N; f++)
         for (int i = 0; i < info.nv; i++) {
             const float *p = info.rest + 3 * (size_t)i;
             for (int c = 0; c < 3; c++) {
-                double acc = 0;
+                double a = 0;
                 for (int s = 0; s < K; s++) {
                     const double *M = T + 12 * ((size_t)f * nb + bone[(size_t)K * i + s]);
-                    acc += w[(size_t)K * i + s] *
-                           (M[3 * c] * p[0] + M[3 * c + 1] * p[1] + M[3 * c + 2] * p[2] + M[9 + c]);
+                    a += w[(size_t)K * i + s] *
+                         (M[3 * c] * p[0] + M[3 * c + 1] * p[1] + M[3 * c + 2] * p[2] + M[9 + c]);
                 }
-                cur[3 * (size_t)i + c] = (float)acc;
+                V[3 * ((size_t)f * info.nv + i) + c] = (float)a;
             }
         }
-        if (f > 0) {
-            const float *prev = V + 3 * (size_t)info.nv * ((f - 1) & 1);
-            for (int i = 0; i < info.nv; i++) {
-                double d = 0;
-                for (int c = 0; c < 3; c++) {
-                    double e = (double)cur[3 * (size_t)i + c] - prev[3 * (size_t)i + c];
-                    d += e * e;
-                }
-                mx = d > mx ? d : mx;
+    *jump = max_jump(V, info.nv, N);
+    size_t n = 0;
+    for (int f = 1; f + 1 < N; f++)
+        for (int i = 0; i < info.nv; i++) {
+            double d = 0;
+            for (int c = 0; c < 3; c++) {
+                size_t k = 3 * (size_t)i + c;
+                double a = (double)V[3 * (size_t)(f + 1) * info.nv + k] -
+                           2.0 * V[3 * (size_t)f * info.nv + k] + V[3 * (size_t)(f - 1) * info.nv + k];
+                d += a * a;
             }
+            acc[n++] = (float)sqrt(d);
         }
-    }
+    qsort(acc, n, sizeof *acc, cmp_float);
+    *p99 = acc[(size_t)(0.99 * (double)(n - 1))];
+    *amax = acc[n - 1];
     free(V);
-    return sqrt(mx);
+    free(acc);
 }
 
 int cmd_variations(int argc, char **argv)
@@ -234,7 +273,8 @@ int cmd_variations(int argc, char **argv)
         status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory for %d frames", frames);
         goto out;
     }
-    double ej = example_jump(model), worst = 0;
+    double ej, ea, eamax, worst = 0, worst_acc = 0;
+    example_motion(model, &ej, &ea, &eamax);
     for (int k = 0; k < count; k++) {
         rc = mdl_variations_walk(v, (uint64_t)(unsigned)seed + (uint64_t)k, frames, T, V, src, err);
         if (rc) {
@@ -250,6 +290,18 @@ int cmd_variations(int argc, char **argv)
         }
         double j = max_jump(V, info.nv, frames);
         worst = j > worst ? j : worst;
+        /* smoothness at the transitions: the largest vertex acceleration within 3 frames */
+        double ta = 0;
+        for (int f = 1; f < frames; f++) {
+            if (src[f] == src[f - 1] + 1)
+                continue;
+            for (int g = f - 3; g <= f + 3; g++)
+                if (g >= 1 && g + 1 < frames) {
+                    double a = accel_at(V, info.nv, g);
+                    ta = a > ta ? a : ta;
+                }
+        }
+        worst_acc = ta > worst_acc ? ta : worst_acc;
         if (jvars) {
             int taken = 0;
             for (int f = 1; f < frames; f++)
@@ -261,6 +313,8 @@ int cmd_variations(int argc, char **argv)
             cJSON_AddNumberToObject(e, "transitions_taken", taken);
             cJSON_AddNumberToObject(e, "max_jump", j);
             cJSON_AddNumberToObject(e, "max_jump_ratio", ej > 0 ? j / ej : 0);
+            cJSON_AddNumberToObject(e, "transition_max_accel", ta);
+            cJSON_AddNumberToObject(e, "transition_accel_ratio", ea > 0 ? ta / ea : 0);
             cJSON_AddItemToArray(jvars, e);
         }
     }
@@ -293,6 +347,10 @@ int cmd_variations(int argc, char **argv)
         cJSON_AddNumberToObject(jo, "example_max_jump", ej);
         cJSON_AddNumberToObject(jo, "max_jump", worst);
         cJSON_AddNumberToObject(jo, "max_jump_ratio", ej > 0 ? worst / ej : 0);
+        cJSON_AddNumberToObject(jo, "example_p99_accel", ea);
+        cJSON_AddNumberToObject(jo, "example_max_accel", eamax);
+        cJSON_AddNumberToObject(jo, "transition_max_accel", worst_acc);
+        cJSON_AddNumberToObject(jo, "transition_accel_ratio", ea > 0 ? worst_acc / ea : 0);
         cJSON_AddNumberToObject(jo, "synth_s",
                                 (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec));
         cJSON_AddItemToObject(jo, "variations", jvars);

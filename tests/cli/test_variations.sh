@@ -2,8 +2,9 @@
 # test_variations.sh - `meshsteer variations` end to end (Zheng 2013, model/variations/): usage,
 # a model without a skin refused, on the built-in example's skin N PC2 files of F frames that are
 # the same for the same seed and differ across seeds, with no frame-to-frame vertex jump above 3x
-# the example's own; --add-to makes a model's skin walk; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames with
-# the same bound. Usage: test_variations.sh MESHSTEER SRC DATA
+# the example's own, and the blend lowers the acceleration at transitions; --add-to makes a
+# model's skin walk; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames
+# with the same bound. Usage: test_variations.sh MESHSTEER SRC DATA
 set -euo pipefail
 ms=$1 src=$2 data=$3
 dir=$(mktemp -d)
@@ -52,6 +53,13 @@ for k in 000 001 002; do
     [ "$(stat -c %s "$f")" = "$(pc2_size 100 "$nv")" ] || fail "$f is not 100 frames of $nv vertices"
 done
 expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 2 --frames 100 --seed 5 -o "$dir/b"
+# the linear blend smooths the transitions: with the same walks (same seeds), the largest vertex
+# acceleration near a transition is lower than with no blend
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --blend 0 -o "$dir/c" --json
+acc8=$(json_num "$dir/a.json" transition_max_accel) acc0=$(json_num "$dir/out" transition_max_accel)
+echo "example: largest acceleration near a transition $acc8 blended, $acc0 not" \
+     "(the example's 99th percentile $(json_num "$dir/a.json" example_p99_accel), largest $(json_num "$dir/a.json" example_max_accel))"
+awk -v a="$acc8" -v b="$acc0" 'BEGIN { exit !(a < b) }' || fail "the blend does not smooth: $acc8 vs $acc0"
 cmp -s "$dir/a/variation_000.pc2" "$dir/b/variation_000.pc2" || fail "seed 5 gave two animations"
 cmp -s "$dir/a/variation_001.pc2" "$dir/b/variation_001.pc2" || fail "seed 6 gave two animations"
 ! cmp -s "$dir/a/variation_000.pc2" "$dir/a/variation_001.pc2" || fail "seeds 5 and 6 gave one animation"
