@@ -53,7 +53,7 @@ typedef struct drv_source drv_source;
 enum {
     DRV_CTL_PAUSE = 1 << 0, /* 1/0 */
     DRV_CTL_SEEK = 1 << 1,  /* frame index */
-    DRV_CTL_SPEED = 1 << 2, /* 0 < factor <= 100 */
+    DRV_CTL_SPEED = 1 << 2, /* factor in [DRV_SPEED_MIN, DRV_SPEED_MAX] */
     DRV_CTL_LOOP = 1 << 3,  /* 1/0 */
 };
 
@@ -84,6 +84,7 @@ struct drv_source {
     int detached;         /* the device was released by drv_source_reopen and none is open yet */
     unsigned controls;    /* DRV_CTL_* bits this source takes (0: none), set by open */
     unsigned caps;        /* DRV_CAP_* bits, set by open */
+    int frames;           /* frames of a recording (what "seek" ranges over), 0 for a live source */
 };
 
 /* spec: "scheme:argument", e.g. "replay:walk.c3d?loop=1&speed=0.5&start=10". */
@@ -112,6 +113,15 @@ void drv_device_watch_destroy(drv_device_watch *w);
 
 /* The registry of source kinds (source.c); each implementation file adds its ops there. */
 const drv_source_ops *drv_source_find_ops(const char *scheme);
+/* The one range of a playback speed factor, for a spec's speed= option and the "speed" control
+ * alike (drv_source_control checks the control, before the source sees it). At 0.001 a 30 Hz file
+ * plays one frame every 33 s; below it a speed is indistinguishable from a pause, and the pacing's
+ * arithmetic (frame period in microseconds) would lose its meaning. */
+#define DRV_SPEED_MIN 0.001
+#define DRV_SPEED_MAX 100.0
+/* 0 when speed is in [DRV_SPEED_MIN, DRV_SPEED_MAX]; otherwise -ERANGE and the reason in err
+ * ("speed 1e-300 outside [0.001, 100]"). */
+int drv_speed_check(double speed, char *err);
 /* The name of one DRV_CTL_* bit ("pause", "seek", "speed", "loop"), for messages; "?" otherwise. */
 const char *drv_control_name(unsigned ctl);
 /* "closed", "open", "streaming", "ended", "lost". */
@@ -124,7 +134,7 @@ const char *drv_state_name(drv_state st);
  * was released. loop=1 wraps to frame 0 at the end (seq keeps counting); otherwise the source ends
  * (DRV_EEOF). start is the first frame; scale (metres per file unit) and up override the file's
  * conventions. Controls (all four bits): "pause" (1/0), "seek" (frame index), "speed"
- * (0 < factor <= 100), "loop" (1/0). A frame that is more than 250 ms late re-anchors the clock rather than bursting. */
+ * (DRV_SPEED_MIN ... DRV_SPEED_MAX, as the option), "loop" (1/0). A frame that is more than 250 ms late re-anchors the clock rather than bursting. */
 
 /* ---- markers and VMC bones over OSC (osc/osc.c; docs/OSC.md) ----
  * Spec: "osc:[HOST:]PORT[?markers=A,B,..&vmc=0|1&scale=M&stale=MS&gap=MS]". Binds a UDP socket

@@ -20,7 +20,6 @@
 
 #define REPLAY_LATE_US 250000
 #define REPLAY_DEFAULT_FPS 30.0
-#define REPLAY_MAX_SPEED 100.0
 
 typedef struct replay {
     mdl_markers *m;
@@ -48,10 +47,20 @@ static void sleep_until_us(uint64_t t)
         ;
 }
 
+/* The frame period and the due time saturate a day ahead: no speed or file rate overflows
+ * llround (speed 1e-300 once made the due time undefined). */
+#define REPLAY_MAX_AHEAD_US 864e8
+
+static double period_us(const replay *r)
+{
+    double p = 1e6 / (r->fps * r->speed);
+    return p < REPLAY_MAX_AHEAD_US ? p : REPLAY_MAX_AHEAD_US;
+}
+
 static uint64_t due_us(const replay *r)
 {
-    double period = 1e6 / (r->fps * r->speed);
-    return r->t_anchor + (uint64_t)llround((double)(r->n - r->n_anchor) * period);
+    double d = (double)(r->n - r->n_anchor) * period_us(r);
+    return r->t_anchor + (uint64_t)llround(d < REPLAY_MAX_AHEAD_US ? d : REPLAY_MAX_AHEAD_US);
 }
 
 static void reanchor(replay *r, uint64_t t)
@@ -115,8 +124,12 @@ static int replay_open(drv_source *s, const char *arg, char *err)
         int r;
         if (!strcmp(kv, "loop"))
             r = parse_num(path, kv, eq, 0, 1, &loop, err);
-        else if (!strcmp(kv, "speed"))
-            r = parse_num(path, kv, eq, 1e-3, REPLAY_MAX_SPEED, &speed, err);
+        else if (!strcmp(kv, "speed")) {
+            char why[DRV_ERR_LEN];
+            r = parse_num(path, kv, eq, -INFINITY, INFINITY, &speed, err);
+            if (!r && (r = drv_speed_check(speed, why)))
+                drv__err(err, r, "replay %s: option %s", path, why);
+        }
         else if (!strcmp(kv, "start"))
             r = parse_num(path, kv, eq, 0, 2e9, &start, err);
         else if (!strcmp(kv, "scale"))
@@ -165,6 +178,7 @@ static int replay_open(drv_source *s, const char *arg, char *err)
     s->names = (const char **)r->m->names;
     s->fps = r->fps;
     s->controls = DRV_CTL_PAUSE | DRV_CTL_SEEK | DRV_CTL_SPEED | DRV_CTL_LOOP;
+    s->frames = r->m->frames;
     return 0;
 }
 
@@ -236,13 +250,14 @@ static int replay_control(drv_source *s, unsigned ctl, double value, char *err)
         reanchor(r, now_us());
         return 0;
     }
-    if (ctl == DRV_CTL_SPEED) {
-        if (!(value > 0 && value <= REPLAY_MAX_SPEED))
-            return drv__err(err, -ERANGE, "replay: speed %g outside (0, %g]", value,
-                          REPLAY_MAX_SPEED);
+    if (ctl == DRV_CTL_SPEED) { /* the range: drv_source_control */
+        /* the next frame keeps its time if it is sooner than a period at the new speed (no
+         * burst when speeding up), else comes a period from now (from speed 0.001, a frame
+         * 33 s away, to 1: 1/fps, not 33 s) */
         uint64_t now = now_us(), due = due_us(r);
-        reanchor(r, due > now ? due : now);
         r->speed = value;
+        uint64_t soon = now + (uint64_t)llround(period_us(r));
+        reanchor(r, due < now ? now : due < soon ? due : soon);
         return 0;
     }
     if (ctl == DRV_CTL_LOOP) {

@@ -123,6 +123,7 @@ int drv_source_reopen(drv_source *s, const char *spec, char *err)
     s->fps = t->fps;
     s->controls = t->controls;
     s->caps = t->caps;
+    s->frames = t->frames;
     s->detached = 0;
     s->state = DRV_STATE_OPEN;
     free(t);
@@ -176,6 +177,14 @@ const char *drv_control_name(unsigned ctl)
     return "?";
 }
 
+int drv_speed_check(double speed, char *err)
+{
+    if (!(speed >= DRV_SPEED_MIN && speed <= DRV_SPEED_MAX))
+        return drv__err(err, -ERANGE, "speed %g outside [%g, %g]", speed, DRV_SPEED_MIN,
+                        DRV_SPEED_MAX);
+    return 0;
+}
+
 int drv_source_control(drv_source *s, unsigned ctl, double value, char *err)
 {
     if (!s)
@@ -185,6 +194,11 @@ int drv_source_control(drv_source *s, unsigned ctl, double value, char *err)
                         drv_control_name(ctl), s->controls ? "" : " (it takes no controls)");
     if (s->detached)
         return drv__err(err, -ENODEV, "source %s: the device is gone", s->ops->scheme);
+    if (ctl == DRV_CTL_SPEED) {
+        char why[DRV_ERR_LEN];
+        if (drv_speed_check(value, why))
+            return drv__err(err, -ERANGE, "source %s: %s", s->ops->scheme, why);
+    }
     int r = s->ops->control(s, ctl, value, err);
     /* a seek may revive a replay that had ended */
     if (r == 0 && s->state == DRV_STATE_ENDED && ctl == DRV_CTL_SEEK)

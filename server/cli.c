@@ -1,6 +1,8 @@
 /* cli.c - usage errors, terminal progress and option parsing for the meshsteer tool. */
 #include "cli.h"
 
+#include <cjson/cJSON.h>
+
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -145,5 +147,16 @@ int cli_marker_option(const char *cmd, const char *opt, const char *arg, mdl_mar
         cli_usage_error(cmd, "--marker-up: '%s' is not one of x y z -x -y -z", arg);
         return -1;
     }
+    return 0;
+}
+
+int cli_print_json(void *cjson_object)
+{
+    char *js = cJSON_Print(cjson_object);
+    cJSON_Delete(cjson_object);
+    if (!js)
+        return -ENOMEM;
+    puts(js);
+    free(js);
     return 0;
 }

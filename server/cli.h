@@ -32,6 +32,10 @@ int cli_parse_int(const char *cmd, const char *opt, const char *s, int *out);
 /* True when s ends with suffix (case-insensitive). */
 int cli_has_suffix(const char *s, const char *suffix);
 
+/* Prints a cJSON object (void * keeps cJSON out of this header) to stdout, indented, and deletes
+ * it. Returns 0, or -ENOMEM when it could not be printed. */
+int cli_print_json(void *cjson_object);
+
 /* Median and 99th percentile of n values (sorts v in place). */
 void cli_percentiles(double *v, int n, double *median, double *p99);
 

@@ -117,14 +117,10 @@ int cmd_eval(int argc, char **argv)
         cJSON_AddItemToArray(pf, cJSON_CreateNumber(r.frame_err[i]));
         cJSON_AddItemToArray(pb, cJSON_CreateNumber(r.baseline_frame_err[i]));
     }
-    char *js = cJSON_Print(o);
-    cJSON_Delete(o);
-    if (!js) {
+    if (cli_print_json(o)) {
         status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
         goto out;
     }
-    puts(js);
-    free(js);
     status = CLI_EXIT_OK;
 out:
     mdl_eval_result_fini(&r);

@@ -225,14 +225,10 @@ int cmd_skin(int argc, char **argv)
         cJSON_AddNumberToObject(o, "threads", threads);
         cJSON_AddNumberToObject(o, "iterations", st.iterations);
         cJSON_AddNumberToObject(o, "diag", st.diag);
-        char *js = cJSON_Print(o);
-        cJSON_Delete(o);
-        if (!js) {
+        if (cli_print_json(o)) {
             status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
             goto out;
         }
-        puts(js);
-        free(js);
     }
     status = CLI_EXIT_OK;
 out:

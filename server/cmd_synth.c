@@ -124,16 +124,12 @@ static int print_stats(const float *out, int nv, const mdl_markers *mk, const in
         cJSON_AddItemToArray(bl, cJSON_CreateNumber(lo[k]));
         cJSON_AddItemToArray(bh, cJSON_CreateNumber(hi[k]));
     }
-    char *js = cJSON_Print(o);
-    cJSON_Delete(o);
-    if (js)
-        puts(js);
-    free(js);
+    int r = cli_print_json(o);
     free(in);
     free(iv);
     free(so);
     free(si);
-    return js ? 0 : -1;
+    return r ? -1 : 0;
 }
 
 static void warn_labels(void *ud, const char *msg)

@@ -44,10 +44,56 @@ const char *srv_control_name(int kind)
     return NULL;
 }
 
+/* The length of the UTF-8 sequence at s (n bytes left), 0 when it is not a valid one. */
+static size_t utf8_seq(const unsigned char *s, size_t n)
+{
+    if (s[0] < 0x80)
+        return 1;
+    size_t len = s[0] >= 0xC2 && s[0] <= 0xDF ? 2 : s[0] >= 0xE0 && s[0] <= 0xEF ? 3
+               : s[0] >= 0xF0 && s[0] <= 0xF4 ? 4 : 0;
+    if (!len || len > n)
+        return 0;
+    for (size_t i = 1; i < len; i++)
+        if ((s[i] & 0xC0) != 0x80)
+            return 0;
+    if ((s[0] == 0xE0 && s[1] < 0xA0) || (s[0] == 0xED && s[1] > 0x9F) || /* overlong, surrogate */
+        (s[0] == 0xF0 && s[1] < 0x90) || (s[0] == 0xF4 && s[1] > 0x8F))  /* overlong, > 10FFFF */
+        return 0;
+    return len;
+}
+
+int srv__utf8_valid(const char *s, size_t n)
+{
+    for (size_t i = 0; i < n;) {
+        size_t k = utf8_seq((const unsigned char *)s + i, n - i);
+        if (!k)
+            return 0;
+        i += k;
+    }
+    return 1;
+}
+
+size_t srv__utf8_copy(char *dst, size_t n, const char *src)
+{
+    size_t len = strlen(src), o = 0;
+    for (size_t i = 0; i < len;) {
+        size_t k = utf8_seq((const unsigned char *)src + i, len - i);
+        const char *c = k ? src + i : "?";
+        size_t w = k ? k : 1;
+        if (o + w >= n)
+            break;
+        memcpy(dst + o, c, w);
+        o += w;
+        i += k ? k : 1;
+    }
+    dst[o] = '\0';
+    return o;
+}
+
 static int fail(const char **code, const char *c, char *msg, size_t msglen, const char *text)
 {
     *code = c;
-    snprintf(msg, msglen, "%s", text);
+    srv__utf8_copy(msg, msglen, text);
     return -1;
 }
 
@@ -60,6 +106,10 @@ int srv_control_parse(const char *txt, size_t len, srv_control *out, const char 
         return fail(code, "malformed", msg, msglen, "empty message");
     if (memchr(txt, '\0', len))
         return fail(code, "malformed", msg, msglen, "NUL byte in message");
+    /* lws checks text frames (LWS_SERVER_OPTION_VALIDATE_UTF8); this parser does not rely on it,
+     * as the id and field names it echoes must be text */
+    if (!srv__utf8_valid(txt, len))
+        return fail(code, "malformed", msg, msglen, "message is not valid UTF-8");
     const char *end = NULL;
     cJSON *j = cJSON_ParseWithLengthOpts(txt, len, &end, 0);
     if (!j) {
@@ -117,8 +167,9 @@ int srv_control_parse(const char *txt, size_t len, srv_control *out, const char 
     for (const cJSON *f = j->child; f; f = f->next) {
         if (!f->string || (strcmp(f->string, "type") && strcmp(f->string, "id") &&
                            !(kinds[k].field && !strcmp(f->string, kinds[k].field)))) {
-            snprintf(m, sizeof m, "unknown field '%.64s' for type '%s'", f->string ? f->string : "",
-                     out->type);
+            char name[65]; /* at most 64 bytes of it, whole characters */
+            srv__utf8_copy(name, sizeof name, f->string ? f->string : "");
+            snprintf(m, sizeof m, "unknown field '%s' for type '%s'", name, out->type);
             r = fail(code, "bad_field", msg, msglen, m);
             goto done;
         }
@@ -147,8 +198,10 @@ int srv_control_parse(const char *txt, size_t len, srv_control *out, const char 
         out->value = v->valuedouble;
         break;
     case SRV_CTL_SPEED:
-        if (!cJSON_IsNumber(v) || !(v->valuedouble > 0) || v->valuedouble > 100) {
-            r = fail(code, "bad_field", msg, msglen, "field 'speed' must be a number in (0, 100]");
+        /* its range is the source's (DRV_SPEED_MIN ... DRV_SPEED_MAX, drivers.h), checked in one
+         * place for this message and the source's speed= option: drv_source_control */
+        if (!cJSON_IsNumber(v) || !isfinite(v->valuedouble)) {
+            r = fail(code, "bad_field", msg, msglen, "field 'speed' must be a number");
             goto done;
         }
         out->value = v->valuedouble;
@@ -195,7 +248,7 @@ size_t srv_reply_pong(char *buf, const srv_control *c, uint64_t server_us)
 size_t srv_reply_error(char *buf, const char *code, const char *message, const srv_control *c)
 {
     char m[256];
-    snprintf(m, sizeof m, "%s", message); /* bounded, so the reply always fits */
+    srv__utf8_copy(m, sizeof m, message); /* bounded, so the reply always fits; UTF-8 */
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "type", "error");
     cJSON_AddStringToObject(o, "code", code);

@@ -4,7 +4,7 @@
  *   {"type":"encoding","encoding":"float32"|"int16"}
  *   {"type":"pause"}   {"type":"resume"}
  *   {"type":"seek","frame":N}          N a whole number >= 0
- *   {"type":"speed","speed":S}         0 < S <= 100
+ *   {"type":"speed","speed":S}         a number (the source takes 0.001 <= S <= 100)
  *   {"type":"ping"}                    answered by {"type":"pong","server_us":T}
  * "id" (a number, or a string of at most 64 bytes) is echoed in the reply. Every field is checked;
  * unknown types and fields are errors. Replies: {"type":"ack","request":T[,"id"]},
@@ -44,6 +44,14 @@ typedef struct srv_control {
  * the message allows, so an error reply can still name the request. */
 int srv_control_parse(const char *txt, size_t len, srv_control *out, const char **code, char *msg,
                       size_t msglen);
+
+/* Copies src into dst (n > 0 bytes, NUL-terminated) as valid UTF-8: an invalid byte becomes '?',
+ * and a cut falls between characters, never inside one (a text frame that is not UTF-8 fails the
+ * connection: RFC 6455 Sec. 8.1). Returns the bytes written. */
+size_t srv__utf8_copy(char *dst, size_t n, const char *src);
+/* 1 when the n bytes at s are valid UTF-8 (RFC 3629: no overlong forms, no surrogates, at most
+ * U+10FFFF). */
+int srv__utf8_valid(const char *s, size_t n);
 
 /* The static name of a kind ("pause", ...), or NULL. */
 const char *srv_control_name(int kind);

@@ -53,6 +53,10 @@ struct srv_session {
 extern const struct lws_protocols srv_proto_stream;
 extern const struct lws_protocols srv_proto_http;
 
+/* 1 when the request carries the token (?token=T or "Authorization: Bearer T"), compared in
+ * constant time; /stream, /healthz and /metrics require it when --token is set. */
+int srv_request_has_token(struct lws *wsi, const char *token);
+
 /* Asks every session to be written to (new frame, results, shutdown). lws thread only. */
 void srv_stream_kick_all(srv_daemon *d);
 

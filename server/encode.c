@@ -52,6 +52,18 @@ static void put_f32(unsigned char *p, float f)
     srv_put_u32(p, u);
 }
 
+/* Adds a string from outside (a file's marker label, a path) as valid UTF-8 text: the hello is a
+ * text frame, and a label in Latin-1 would fail every client's connection. */
+static void add_text(cJSON *o, const char *key, const char *s)
+{
+    size_t n = strlen(s);
+    char *t = srv__utf8_valid(s, n) ? NULL : malloc(n + 1);
+    if (t)
+        srv__utf8_copy(t, n + 1, s);
+    cJSON_AddStringToObject(o, key, t ? t : s);
+    free(t);
+}
+
 static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv_source_desc *src)
 {
     cJSON *h = cJSON_CreateObject();
@@ -62,7 +74,7 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
     cJSON_AddStringToObject(h, "server", "meshsteerd " MESHSTEER_VERSION);
     cJSON_AddNumberToObject(h, "generation", g->id);
     cJSON *m = cJSON_AddObjectToObject(h, "model");
-    cJSON_AddStringToObject(m, "name", g->name);
+    add_text(m, "name", g->name);
     cJSON_AddStringToObject(m, "kind", mdl_kind_name(info->kind) ? mdl_kind_name(info->kind) : "");
     cJSON *kinds = cJSON_AddArrayToObject(m, "kinds");
     for (int i = 0; i < info->nkinds; i++)
@@ -84,18 +96,19 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
     cJSON *mk = cJSON_AddArrayToObject(h, "markers");
     for (int i = 0; i < g->nm; i++) {
         cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "name", info->markers[i].name);
+        add_text(o, "name", info->markers[i].name);
         const char *own = info->markers[i].source[0] ? info->markers[i].source : info->markers[i].name;
-        cJSON_AddStringToObject(o, "source", own);
-        cJSON_AddStringToObject(o, "live", src && src->lookup && src->lookup[i] ? src->lookup[i] : own);
+        add_text(o, "source", own);
+        add_text(o, "live", src && src->lookup && src->lookup[i] ? src->lookup[i] : own);
         cJSON_AddBoolToObject(o, "bound", src && src->bound && src->bound[i]);
         cJSON_AddItemToArray(mk, o);
     }
     cJSON *s = cJSON_AddObjectToObject(h, "source");
-    cJSON_AddStringToObject(s, "spec", src && src->spec ? src->spec : "");
+    add_text(s, "spec", src && src->spec ? src->spec : "");
     cJSON_AddStringToObject(s, "scheme", src && src->scheme ? src->scheme : "");
     cJSON_AddNumberToObject(s, "fps", src ? src->fps : 0);
     cJSON_AddNumberToObject(s, "markers", src ? src->count : 0);
+    cJSON_AddNumberToObject(s, "frames", src ? src->frames : 0);
     cJSON *ctl = cJSON_AddArrayToObject(s, "controls");
     for (int i = 0; src && i < SRV_SOURCE_CONTROLS; i++)
         if (src->controls & SRV_CTL_BIT(srv_source_controls[i]))

@@ -72,6 +72,7 @@ typedef struct srv_source_desc {
     const char *spec;
     const char *scheme;
     double fps;
+    int frames;                /* frames of a recording (hello source.frames), 0 live */
     int count;                 /* source markers */
     const char *const *names;  /* count labels */
     unsigned controls;         /* SRV_CTL_BIT()s of the source controls accepted (pause, resume,

@@ -3,7 +3,8 @@
  * headers, then the body in WRITEABLE callbacks (64 KiB per callback). The files are served here
  * rather than by an lws file mount because lws 4.1.6's file mount answers the second request on a
  * kept-alive connection with the first one's headers and no body. Paths are confined to web_root
- * (realpath), GET only. */
+ * (realpath). GET and HEAD (the same headers, no body); with --token, /healthz and /metrics
+ * (which name the model path and source spec) need the token as /stream does. */
 #include "daemon.h"
 #include "log.h"
 
@@ -21,6 +22,7 @@
 typedef struct http_req {
     char *body; /* LWS_PRE headroom before it */
     size_t len, sent;
+    int head;   /* HEAD: headers only */
 } http_req;
 
 static char *healthz(srv_daemon *d)
@@ -31,7 +33,14 @@ static char *healthz(srv_daemon *d)
     drv_state st = srv_pipeline_source_state(d->pipe);
     srv_gen *g = srv_pipeline_current(d->pipe);
     int ok = st == DRV_STATE_STREAMING || st == DRV_STATE_OPEN || st == DRV_STATE_ENDED;
-    cJSON_AddStringToObject(h, "status", ok ? "ok" : "degraded");
+    char why[200];
+    int synth_bad = srv_pipeline_degraded(d->pipe, why, sizeof why);
+    cJSON_AddStringToObject(h, "status", ok && !synth_bad ? "ok" : "degraded");
+    if (synth_bad)
+        cJSON_AddStringToObject(h, "reason", why);
+    else if (!ok)
+        cJSON_AddStringToObject(h, "reason", st == DRV_STATE_LOST ? "the source is lost"
+                                                                  : "the source is not open");
     cJSON_AddNumberToObject(h, "protocol", SRV_PROTOCOL);
     cJSON_AddStringToObject(h, "version", MESHSTEER_VERSION);
     cJSON *m = cJSON_AddObjectToObject(h, "model");
@@ -64,12 +73,18 @@ static int respond(struct lws *wsi, http_req *r, unsigned int status, const char
     if (!r->body)
         return -1;
     memcpy(r->body + LWS_PRE, body, len);
-    r->len = len;
+    r->len = r->head ? 0 : len; /* HEAD: Content-Length of the GET, no body */
     unsigned char hdr[LWS_PRE + 1024], *start = hdr + LWS_PRE, *p = start,
                                        *end = hdr + sizeof hdr - 1;
     if (lws_add_http_common_headers(wsi, status, type, (lws_filepos_t)len, &p, end) ||
         lws_add_http_header_by_token(wsi, WSI_TOKEN_HTTP_CACHE_CONTROL,
                                      (const unsigned char *)"no-store", 8, &p, end) ||
+        (status == HTTP_STATUS_METHOD_NOT_ALLOWED &&
+         lws_add_http_header_by_name(wsi, (const unsigned char *)"allow:",
+                                     (const unsigned char *)"GET, HEAD", 9, &p, end)) ||
+        (status == HTTP_STATUS_UNAUTHORIZED &&
+         lws_add_http_header_by_token(wsi, WSI_TOKEN_HTTP_WWW_AUTHENTICATE,
+                                      (const unsigned char *)"Bearer", 6, &p, end)) ||
         lws_finalize_write_http_header(wsi, start, &p, end))
         return -1;
     lws_callback_on_writable(wsi);
@@ -137,10 +152,31 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
     case LWS_CALLBACK_HTTP: {
         memset(r, 0, sizeof *r);
         char uri[256];
-        if (lws_hdr_copy(wsi, uri, sizeof uri, WSI_TOKEN_GET_URI) <= 0) {
-            static const char msg[] = "only GET\n";
-            return respond(wsi, r, HTTP_STATUS_METHOD_NOT_ALLOWED, "text/plain", msg,
+        int ulen = lws_hdr_total_length(wsi, WSI_TOKEN_GET_URI);
+        if (ulen <= 0) {
+            ulen = lws_hdr_total_length(wsi, WSI_TOKEN_HEAD_URI);
+            r->head = ulen > 0;
+            if (!r->head) {
+                static const char msg[] = "only GET and HEAD\n";
+                return respond(wsi, r, HTTP_STATUS_METHOD_NOT_ALLOWED, "text/plain", msg,
+                               sizeof msg - 1);
+            }
+        }
+        if (ulen >= (int)sizeof uri) { /* no path of ours is that long */
+            static const char msg[] = "URI too long\n";
+            return respond(wsi, r, HTTP_STATUS_REQ_URI_TOO_LONG, "text/plain", msg,
                            sizeof msg - 1);
+        }
+        if (lws_hdr_copy(wsi, uri, sizeof uri, r->head ? WSI_TOKEN_HEAD_URI : WSI_TOKEN_GET_URI) !=
+                ulen ||
+            strlen(uri) != (size_t)ulen) { /* a %00 in the path */
+            static const char msg[] = "bad request\n";
+            return respond(wsi, r, HTTP_STATUS_BAD_REQUEST, "text/plain", msg, sizeof msg - 1);
+        }
+        if ((!strcmp(uri, "/healthz") || !strcmp(uri, "/metrics")) && d->cfg.token[0] &&
+            !srv_request_has_token(wsi, d->cfg.token)) {
+            static const char msg[] = "token required (?token= or Authorization: Bearer)\n";
+            return respond(wsi, r, HTTP_STATUS_UNAUTHORIZED, "text/plain", msg, sizeof msg - 1);
         }
         if (!strcmp(uri, "/healthz")) {
             char *b = healthz(d);
@@ -179,6 +215,11 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
     case LWS_CALLBACK_HTTP_WRITEABLE:
         if (!r->body)
             return -1;
+        if (r->head) {
+            free(r->body);
+            r->body = NULL;
+            return lws_http_transaction_completed(wsi) ? -1 : 0;
+        }
     {
         size_t n = r->len - r->sent > HTTP_CHUNK ? HTTP_CHUNK : r->len - r->sent;
         int final = r->sent + n == r->len;

@@ -50,7 +50,9 @@ static const cli_command commands[] = {
 static void usage(FILE *f)
 {
     fprintf(f, "usage: meshsteer COMMAND [OPTIONS]\n\n"
-               "Steers detailed mesh animations from a few tracked points (Voegele et al. 2012).\n\n"
+               "Steers detailed mesh animations from a few tracked points: a steering model learned from an\n"
+               "example animation (Voegele et al. 2012), a static mesh animated by a skeleton (de Aguiar\n"
+               "et al. 2007), and a skin of an animation (Le & Deng 2012).\n\n"
                "commands:\n");
     for (const cli_command *c = commands; c->name; c++)
         fprintf(f, "  %-11s %s\n", c->name, c->summary);

@@ -8,10 +8,13 @@
  * a 100 ms lws timer guarantees the loop looks at them. */
 #include "daemon.h"
 #include "log.h"
+#include "srv_err.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
 #include <stddef.h>
 #include <getopt.h>
+#include <netdb.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -39,7 +42,8 @@ static void usage(FILE *f)
             "Streams meshes synthesised from a marker source to WebSocket clients.\n\n"
             "  -m, --model FILE        trained model (meshsteer train)\n"
             "  -s, --source SPEC       replay:FILE[?loop=1&speed=1&start=0] (.c3d .trc .bvh .csv)\n"
-            "  -l, --listen ADDR:PORT  default 127.0.0.1:8080 (port 0: any free port)\n"
+            "  -l, --listen ADDR:PORT  default 127.0.0.1:8080, exactly that address ([::1]:PORT for IPv6;\n"
+            "                          port 0: any free port)\n"
             "  -c, --config FILE       'key = value' settings; flags override them\n"
             "      --record OUT.c3d    also write the incoming markers to a C3D file\n"
             "      --max-clients N     default 256\n"
@@ -97,6 +101,42 @@ static struct lws_context *tick_ctx;
 static void tick(lws_sorted_usec_list_t *sul)
 {
     lws_sul_schedule(tick_ctx, 0, sul, tick, 100 * LWS_US_PER_MS);
+}
+
+/* The listen address as lws 4.1 must be given it to bind exactly that address: info.iface takes
+ * the numeric address, and the socket's family follows the options. Unless IPv6 is disabled lws
+ * makes an IPv6 socket and, for an IPv4 iface, binds [::] (every interface, both families); so
+ * an IPv4 address disables IPv6, and an IPv6 address sets V6ONLY (no IPv4 on it). A host name
+ * binds its first address. numeric gets the address, *v6 whether it is IPv6. */
+static int listen_address(const char *host, char *numeric, size_t n, uint64_t *options, int *v6,
+                          char *err)
+{
+    struct in_addr a4;
+    struct in6_addr a6;
+    char buf[INET6_ADDRSTRLEN];
+    const char *addr = host;
+    if (inet_pton(AF_INET, host, &a4) != 1 && inet_pton(AF_INET6, host, &a6) != 1) {
+        struct addrinfo hints = {.ai_socktype = SOCK_STREAM, .ai_flags = AI_ADDRCONFIG}, *res;
+        int r = getaddrinfo(host, NULL, &hints, &res);
+        if (r)
+            return srv_err(err, -EINVAL, "listen: cannot resolve '%s': %s", host, gai_strerror(r));
+        const void *src = res->ai_family == AF_INET
+                              ? (const void *)&((struct sockaddr_in *)res->ai_addr)->sin_addr
+                              : (const void *)&((struct sockaddr_in6 *)res->ai_addr)->sin6_addr;
+        const char *ok = inet_ntop(res->ai_family, src, buf, sizeof buf);
+        freeaddrinfo(res);
+        if (!ok)
+            return srv_err(err, -EINVAL, "listen: cannot resolve '%s'", host);
+        addr = buf;
+    }
+    *v6 = inet_pton(AF_INET, addr, &a4) != 1;
+    *options |= *v6 ? LWS_SERVER_OPTION_IPV6_V6ONLY_MODIFY | LWS_SERVER_OPTION_IPV6_V6ONLY_VALUE
+                    : LWS_SERVER_OPTION_DISABLE_IPV6;
+    size_t len = strlen(addr);
+    if (len >= n)
+        return srv_err(err, -EINVAL, "listen: bad address '%s'", host);
+    memcpy(numeric, addr, len + 1);
+    return 0;
 }
 
 /* What the command line said, kept so that SIGHUP can build the settings again: the config file
@@ -302,18 +342,27 @@ int main(int argc, char **argv)
     struct lws_context_creation_info info;
     memset(&info, 0, sizeof info);
     info.port = d.cfg.port; /* 0: any free port, reported below */
-    info.iface = d.cfg.listen_host;
+    char listen_addr[INET6_ADDRSTRLEN];
+    int listen_v6 = 0;
+    info.options = LWS_SERVER_OPTION_VALIDATE_UTF8 |
+                   LWS_SERVER_OPTION_HTTP_HEADERS_SECURITY_BEST_PRACTICES_ENFORCE;
+    if (listen_address(d.cfg.listen_host, listen_addr, sizeof listen_addr, &info.options,
+                       &listen_v6, err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        srv_pipeline_destroy(d.pipe);
+        return 1;
+    }
+    info.iface = listen_addr;
     info.protocols = protocols;
     info.pvo = &pvo;
     info.mounts = &m_root;
     info.user = &d;
-    info.options = LWS_SERVER_OPTION_VALIDATE_UTF8 |
-                   LWS_SERVER_OPTION_HTTP_HEADERS_SECURITY_BEST_PRACTICES_ENFORCE;
     info.timeout_secs = 10;
     info.pt_serv_buf_size = 64 * 1024;
     d.ctx = lws_create_context(&info);
     if (!d.ctx) {
-        srv_log(SRV_LOG_ERROR, "cannot listen on %s:%d", d.cfg.listen_host, d.cfg.port);
+        srv_log(SRV_LOG_ERROR, "cannot listen on %s%s%s:%d", listen_v6 ? "[" : "", listen_addr,
+                listen_v6 ? "]" : "", d.cfg.port);
         srv_pipeline_destroy(d.pipe);
         return 1;
     }
@@ -328,8 +377,8 @@ int main(int argc, char **argv)
         srv_pipeline_destroy(d.pipe);
         return 1;
     }
-    srv_log(SRV_LOG_NOTICE, "listening on http://%s:%d/ (viewer at /, stream at /stream)",
-            d.cfg.listen_host, port);
+    srv_log(SRV_LOG_NOTICE, "listening on http://%s%s%s:%d/ (viewer at /, stream at /stream)",
+            listen_v6 ? "[" : "", listen_addr, listen_v6 ? "]" : "", port);
     sd_notifyf(0, "READY=1\nSTATUS=serving %s on port %d\nMAINPID=%lu", d.cfg.model, port,
                (unsigned long)getpid());
 
@@ -354,7 +403,7 @@ int main(int argc, char **argv)
         if (srv_pipeline_reload_done(d.pipe, &ok, err)) {
             if (ok) {
                 srv_metrics_count(&d.metrics.reloads_ok, 1);
-                srv_log(SRV_LOG_NOTICE, "reload of %s succeeded; swapping at the next frame",
+                srv_log(SRV_LOG_NOTICE, "reload of %s succeeded; swapping it in (within 100 ms, paused or not)",
                         d.cfg.model);
             } else {
                 srv_metrics_count(&d.metrics.reloads_failed, 1);

@@ -33,6 +33,7 @@ struct srv_pipeline {
     srv_source_info si;            /* what other threads may read of the source */
     atomic_uint controls;          /* SRV_CTL_BIT()s the source accepts now (changes on reopen) */
     atomic_int idle_on;            /* the idle synthesis drives the output */
+    atomic_int paused;             /* a client paused the source: no frames, but someone is there */
     srv_metrics *m;
     void (*wake)(void *);
     void *wake_ud;
@@ -75,6 +76,12 @@ struct srv_pipeline {
     char reload_path[SRV_PATH_LEN];
     char reload_labels[SRV_LABELS_MAX_LEN];
     atomic_uint next_gen;
+
+    /* synthesis health (synth_health): the run of frames synthesis refused, by the synthesis
+     * thread; degraded and its reason (under pub) for /healthz */
+    uint64_t fail_run, fail_logged_us;
+    atomic_int degraded;
+    char degraded_why[160];
 };
 
 uint64_t srv_now_us(void)
@@ -120,6 +127,7 @@ int srv_source_info_init(srv_source_info *si, const drv_source *src, const char 
     snprintf(si->scheme, sizeof si->scheme, "%s", src->ops->scheme);
     si->count = src->count;
     si->fps = src->fps;
+    si->frames = src->frames;
     si->caps = src->caps;
     si->controls = src->ops->control ? srv_controls_of_source(src->controls) : 0;
     si->names = calloc((size_t)src->count + 1, sizeof *si->names);
@@ -247,6 +255,7 @@ int srv_pipeline_load(const char *model_path, const char *labels, const srv_sour
         r = srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
         goto fail;
     }
+    memcpy(out->V, info.rest, (size_t)info.nv * 3 * sizeof(float)); /* the pose before any */
     if (out->nm > 0) {
         r = bind_markers(out, &info, model_path, labels, src, lookup, bound, &lmap, err);
         if (r)
@@ -261,6 +270,7 @@ int srv_pipeline_load(const char *model_path, const char *labels, const srv_sour
         .spec = src->spec,
         .scheme = src->scheme,
         .fps = src->fps,
+        .frames = src->frames,
         .count = src->count,
         .names = (const char *const *)src->names,
         .controls = src->controls,
@@ -380,6 +390,8 @@ static void apply_controls(srv_pipeline *p)
         if (r == 0) {
             if (ctl == DRV_CTL_SEEK)
                 atomic_store(&p->reset_synth, 1);
+            if (ctl == DRV_CTL_PAUSE)
+                atomic_store(&p->paused, v != 0);
             len = srv_reply_ack(reply, c);
             srv_metrics_count(&p->m->control_ok, 1);
             srv_log(SRV_LOG_INFO, "source control %s %g", srv_control_name(c->kind), v);
@@ -461,7 +473,8 @@ static void *source_main(void *arg)
 
 /* ------------------------------------------------------------------ the synthesis thread */
 
-static void swap_pending(srv_pipeline *p)
+/* 1 when a pending generation was swapped in. */
+static int swap_pending(srv_pipeline *p)
 {
     srv_bundle old = {0};
     pthread_mutex_lock(&p->pub);
@@ -476,7 +489,59 @@ static void swap_pending(srv_pipeline *p)
                 p->cur.gen->name, p->cur.gen->nv);
         srv_bundle_fini(&old); /* frames still held by clients keep their generation alive */
         p->wake(p->wake_ud);
+        return 1;
     }
+    return 0;
+}
+
+/* After each synthesis step (r its result): a run of refused frames (no reference marker was
+ * ever valid, e.g. a source whose every marker is invalid) makes the pipeline degraded with the
+ * reason, logged at its start and then at most every 10 s; the first good frame ends it. The
+ * refused frames still go out with the last good pose (the rest pose before any), flagged
+ * reference lost, so clients see that the source is there but not tracked. */
+#define SYNTH_DEGRADED_AFTER 3
+#define SYNTH_LOG_EVERY_US 10000000u
+
+static void synth_health(srv_pipeline *p, const srv_bundle *b, int r)
+{
+    if (r == 0) {
+        if (p->fail_run >= SYNTH_DEGRADED_AFTER)
+            srv_log(SRV_LOG_NOTICE, "synthesis works again after %llu refused frames",
+                    (unsigned long long)p->fail_run);
+        p->fail_run = 0;
+        atomic_store(&p->degraded, 0);
+        return;
+    }
+    srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_FAILED], 1);
+    srv_log(SRV_LOG_DEBUG, "synthesis refused a frame (%d)", r);
+    if (++p->fail_run < SYNTH_DEGRADED_AFTER)
+        return;
+    int valid = 0;
+    for (int i = 0; i < b->nm; i++)
+        valid += b->mv[i];
+    uint64_t now = srv_now_us();
+    if (p->fail_run == SYNTH_DEGRADED_AFTER || now - p->fail_logged_us >= SYNTH_LOG_EVERY_US) {
+        pthread_mutex_lock(&p->pub);
+        snprintf(p->degraded_why, sizeof p->degraded_why,
+                 "synthesis refuses every frame: the model's reference markers were never valid "
+                 "(%d of %d model markers valid)", valid, b->nm);
+        pthread_mutex_unlock(&p->pub);
+        srv_log(SRV_LOG_WARN, "%llu frames in a row: %s; %s (check the source and --labels)",
+                (unsigned long long)p->fail_run, p->degraded_why,
+                b->idle ? "the idle animation takes over" : "sending the last good pose");
+        p->fail_logged_us = now;
+    }
+    atomic_store(&p->degraded, 1);
+}
+
+int srv_pipeline_degraded(srv_pipeline *p, char *why, size_t n)
+{
+    if (!atomic_load(&p->degraded))
+        return 0;
+    pthread_mutex_lock(&p->pub);
+    snprintf(why, n, "%s", p->degraded_why);
+    pthread_mutex_unlock(&p->pub);
+    return 1;
 }
 
 /* Publishes b->V (and the model-ordered markers b->mk, b->mv) as the newest frame. */
@@ -559,10 +624,11 @@ static int synth_tracked(srv_pipeline *p, srv_bundle *b, const float *xyz, const
     }
     uint64_t t0 = srv_now_us();
     mdl_synth_info si = {0};
-    int r = mdl_synth_markers(b->synth, b->mk, b->mv, b->V, &si);
+    int r = mdl_synth_markers(b->synth, b->mk, b->mv, b->V, &si); /* V kept when refused */
+    synth_health(p, b, r);
     if (r != 0) {
-        srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_FAILED], 1);
-        srv_log(SRV_LOG_DEBUG, "synthesis refused a frame (%d)", r);
+        if (!b->idle) /* the last good pose again (the idle animation takes over otherwise) */
+            publish(p, b, t_capture, t0, SRV_FLAG_REFERENCE_LOST, si.markers_missing);
         return r;
     }
     int flags = (si.reference_lost ? SRV_FLAG_REFERENCE_LOST : 0) |
@@ -600,6 +666,8 @@ static void *synth_main(void *arg)
     uint8_t *valid = calloc((size_t)count + 1, 1);
     uint64_t t_start = srv_now_us(), next_tick = t_start, last_frame = t_start;
     int failed = 0; /* consecutive frames the tracked kind could not synthesise */
+    uint64_t last_capture = 0; /* of the markers in xyz, valid */
+    int have_markers = 0;
     while (xyz && valid && !atomic_load(&p->stop)) {
         srv_bundle *b = &p->cur;
         int clocked = !(b->inputs & MDL_INPUT_MARKERS);
@@ -607,7 +675,8 @@ static void *synth_main(void *arg)
         drv_state st = (drv_state)atomic_load(&p->src_state);
         const char *why = st == DRV_STATE_LOST    ? "the source is lost"
                         : st == DRV_STATE_ENDED   ? "the source ended"
-                        : now - last_frame > SRV_IDLE_AFTER_US ? "no source frames"
+                        : !atomic_load(&p->paused) && now - last_frame > SRV_IDLE_AFTER_US
+                            ? "no source frames"
                         : failed >= (int)b->clock_fps ? "the markers do not allow a pose"
                                                       : NULL;
         int idle = !clocked && b->idle && why;
@@ -616,10 +685,19 @@ static void *synth_main(void *arg)
         int got = take_slot(p, deadline, xyz, valid, &t_capture);
         if (atomic_load(&p->stop))
             break;
-        swap_pending(p);
+        int swapped = swap_pending(p);
         b = &p->cur;
         clocked = !(b->inputs & MDL_INPUT_MARKERS);
         now = srv_now_us();
+        if (got) {
+            last_capture = t_capture;
+            have_markers = 1;
+        } else if (swapped && !clocked && have_markers) {
+            /* a reload while no frame comes (paused): the last markers through the new model, so
+             * that clients are greeted with it now, not at the resume */
+            t_capture = last_capture;
+            got = 1;
+        }
         if (got) {
             last_frame = now;
             if (!clocked) {

@@ -7,7 +7,8 @@
  * its model's fps instead of at the source's frames. A bundle may also hold an *idle* synthesis:
  * the clock-driven kind of the same model file (so the same mesh, and no new hello when it takes
  * over), which the synthesis thread runs whenever no one is tracked: the source is lost or ended,
- * no source frame came for SRV_IDLE_AFTER_US, or the tracked kind cannot synthesise (no reference
+ * no source frame came for SRV_IDLE_AFTER_US (unless a client paused it: a paused replay holds
+ * its pose), or the tracked kind cannot synthesise (no reference
  * yet, every marker invalid). Its frames carry SRV_FLAG_IDLE.
  * wake() is lws_cancel_service in the daemon (the only lws call made from these threads).
  * Per frame nothing is allocated: buffers come with the generation (srv_pipeline_load).
@@ -44,6 +45,7 @@ typedef struct srv_source_info {
     int count;
     char **names;       /* count labels */
     double fps;
+    int frames;         /* frames of a recording, 0 for a live source */
     unsigned caps;      /* DRV_CAP_* */
     unsigned controls;  /* SRV_CTL_BIT()s accepted when opened */
 } srv_source_info;
@@ -108,6 +110,8 @@ int srv_pipeline_reload(srv_pipeline *p, const char *model_path, const char *lab
 int srv_pipeline_reload_done(srv_pipeline *p, int *ok, char *err);
 
 drv_state srv_pipeline_source_state(srv_pipeline *p);
+/* 1 while synthesis refuses every frame (its reason into why, n bytes), else 0. */
+int srv_pipeline_degraded(srv_pipeline *p, char *why, size_t n);
 /* The source as copied at start (any thread). */
 const srv_source_info *srv_pipeline_source_info(srv_pipeline *p);
 /* The control kinds the source accepts now, as SRV_CTL_BIT()s (any thread). */

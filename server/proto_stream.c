@@ -36,6 +36,16 @@ static int same_secret(const char *a, const char *b)
     return diff == 0;
 }
 
+int srv_request_has_token(struct lws *wsi, const char *token)
+{
+    char buf[1024];
+    const char *t = lws_get_urlarg_by_name(wsi, "token=", buf, sizeof buf);
+    if (t && same_secret(t, token))
+        return 1;
+    return lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_HTTP_AUTHORIZATION) > 0 &&
+           !strncmp(buf, "Bearer ", 7) && same_secret(buf + 7, token);
+}
+
 /* 0 to accept the upgrade, 1 to refuse (logged with the reason). */
 static int filter(srv_daemon *d, struct lws *wsi)
 {
@@ -47,22 +57,17 @@ static int filter(srv_daemon *d, struct lws *wsi)
         why = "shutting down";
     else if (d->nsessions >= d->cfg.max_clients)
         why = "too many clients";
-    if (!why && d->cfg.token[0]) {
-        const char *t = lws_get_urlarg_by_name(wsi, "token=", buf, sizeof buf);
-        int ok = t && same_secret(t, d->cfg.token);
-        if (!ok && lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_HTTP_AUTHORIZATION) > 0 &&
-            !strncmp(buf, "Bearer ", 7))
-            ok = same_secret(buf + 7, d->cfg.token);
-        if (!ok)
-            why = "missing or wrong token";
-    }
+    if (!why && d->cfg.token[0] && !srv_request_has_token(wsi, d->cfg.token))
+        why = "missing or wrong token";
     if (!why && strcmp(d->cfg.origin, "any")) {
         int n = lws_hdr_copy(wsi, buf, sizeof buf, WSI_TOKEN_ORIGIN);
         if (n <= 0) {
             why = "no Origin header";
         } else if (!strcmp(d->cfg.origin, "same")) {
             int hn = lws_hdr_copy(wsi, host, sizeof host, WSI_TOKEN_HOST);
-            const char *o = !strncmp(buf, "http://", 7) ? buf + 7 : !strncmp(buf, "https://", 8) ? buf + 8 : NULL;
+            /* the daemon speaks plain HTTP: its own pages' origin is http://HOST, and an https://
+             * page is another origin (RFC 6454 Sec. 4: the scheme is part of it) */
+            const char *o = !strncmp(buf, "http://", 7) ? buf + 7 : NULL;
             if (hn <= 0 || !o || strcmp(o, host))
                 why = "Origin does not match Host";
         } else {
@@ -408,7 +413,9 @@ static int callback_stream(struct lws *wsi, enum lws_callback_reasons reason, vo
             s->rx_len = 0;
             s->rx_binary = lws_frame_is_binary(wsi);
         }
-        if (s->rx_len + len > (size_t)d->cfg.max_message) {
+        /* what the frame header still announces counts too: a header claiming 2^40 bytes is
+         * closed at its first bytes, not after the client has sent max_message of them */
+        if (s->rx_len + len + lws_remaining_packet_payload(wsi) > (size_t)d->cfg.max_message) {
             srv_metrics_count(&d->metrics.closed_oversize, 1);
             srv_log(SRV_LOG_INFO, "client %llu closed: message larger than %d bytes",
                     (unsigned long long)s->tag, d->cfg.max_message);

@@ -24,7 +24,7 @@ const stats = {
   controls: [],       // the source controls the hello offers (source.controls)
   kind: '',           // model kind (hello model.kind; protocol-1 servers without it run 'steer')
   driver: '',         // 'tracked', or 'reference lost' / 'held' from the frame flags
-  sourceFrames: 0,    // frames of the source (hello source.frames, else learned from a seek probe)
+  sourceFrames: 0,    // frames of the source (hello source.frames; 0 for a live one)
   paused: false, speed: 1, position: NaN, // the playback state as the viewer last set it
   acks: 0,            // control requests acknowledged
   framesSinceAck: 0,  // frames received after the last ack
@@ -296,9 +296,6 @@ function onText(msg) {
     stats.acks++;
     stats.framesSinceAck = 0; // the server acks after it applied the control; frames follow in order
   } else if (msg.type === 'error') {
-    // the answer to the frame-count probe (setupPlayback) names the source's frames
-    const m = msg.id === 'frames-probe' && /the (\d+) frames/.exec(msg.message || '');
-    if (m) { setSeekRange(Number(m[1])); return; }
     stats.errors++;
     stats.lastError = `${msg.code}: ${msg.message}`;
   }
@@ -425,11 +422,7 @@ function setupPlayback(src) {
   el('pos').hidden = !c.includes('seek');
   speedSel.hidden = !c.includes('speed');
   stats.fpsSource = src.fps || 0;
-  setSeekRange(Number.isInteger(src.frames) ? src.frames : 0);
-  // Protocol-1 hellos name no frame count: a seek far past the end is refused with a message that
-  // names it ("... outside the N frames ..."), and changes nothing.
-  if (c.includes('seek') && !Number.isInteger(src.frames))
-    send({ type: 'seek', frame: 2000000000, id: 'frames-probe' });
+  setSeekRange(Number.isInteger(src.frames) ? src.frames : 0); // hello source.frames
   pauseBtn.textContent = stats.paused ? 'resume' : 'pause';
 }
 function showPosition() {

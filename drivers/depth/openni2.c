@@ -164,9 +164,10 @@ static int parse_opts(oni_src *o, const char *q, char *err)
         if (!strcmp(kv, "speed")) { /* a factor, not an integer */
             char *end;
             double v = strtod(eq + 1, &end);
-            if (*end || end == eq + 1 || !(v >= 0 && v <= 100))
-                return drv__err(err, -EINVAL, "openni2: option speed: '%s' is not a factor in "
-                                "0 .. 100 (0: every frame, as fast as read)", eq + 1);
+            if (*end || end == eq + 1 || (v != 0 && drv_speed_check(v, NULL)))
+                return drv__err(err, -EINVAL, "openni2: option speed: '%s' is not 0 (every "
+                                "frame, as fast as read) or a factor in [%g, %g]", eq + 1,
+                                DRV_SPEED_MIN, DRV_SPEED_MAX);
             o->speed = v;
             o->speed_set = 1;
             continue;
@@ -523,9 +524,7 @@ static int oni_control(drv_source *s, unsigned ctl, double value, char *err)
         o->paused = value != 0;
         return 0;
     }
-    if (ctl == DRV_CTL_SPEED) {
-        if (!(value >= 0 && value <= 100))
-            return drv__err(err, -ERANGE, "openni2 %s: speed %g outside 0 .. 100", o->uri, value);
+    if (ctl == DRV_CTL_SPEED) { /* the range: drv_source_control */
         if (!o->paused && set_speed(o, value))
             return drv__err(err, -EIO, "openni2 %s: cannot set the playback speed to %g: %s",
                             o->uri, value, oni_why(why));

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 int mdl__err(char *err, int code, const char *fmt, ...)
 {
@@ -34,6 +35,13 @@ int mdl__read_file(const char *path, size_t max_bytes, char **buf, size_t *len, 
     FILE *f = fopen(path, "rb");
     if (!f)
         return mdl__err(err, -errno, "%s: cannot open: %s", path, strerror(errno));
+    struct stat st; /* a directory opens, and "seeks" to LONG_MAX */
+    if (fstat(fileno(f), &st) == 0 && !S_ISREG(st.st_mode)) {
+        fclose(f);
+        if (S_ISDIR(st.st_mode))
+            return mdl__err(err, -EISDIR, "%s: is a directory, not a file", path);
+        return mdl__err(err, -EINVAL, "%s: not a regular file", path);
+    }
     if (fseek(f, 0, SEEK_END) != 0) {
         int e = errno;
         fclose(f);

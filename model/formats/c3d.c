@@ -17,7 +17,9 @@
  *
  * Reader rules (where files disagree with themselves):
  *   - points: the header count; POINT:USED must agree when present. Files without a POINT group
- *     (e.g. phasespace_sample.c3d) are read from the header alone.
+ *     (e.g. phasespace_sample.c3d) are read from the header alone. A count greater than both the
+ *     labels and the points the data section could hold (the file holds no frame of them) is
+ *     rejected.
  *   - storage: the sign of the header scale picks int16 or float; the int16 scale factor is
  *     |POINT:SCALE| (|header scale| without the parameter).
  *   - units: POINT:UNITS "mm", "cm" or "m" (also spelled out); missing means mm.
@@ -257,6 +259,27 @@ static int c3d_units(const c3d *c, double *scale, char *err)
     return 0;
 }
 
+/* The number of labels POINT:LABELS, LABELS2, ... hold. */
+static size_t c3d_label_count(const c3d *c)
+{
+    size_t total = 0;
+    for (int k = 1;; k++) {
+        char pname[32];
+        if (k == 1)
+            snprintf(pname, sizeof pname, "LABELS");
+        else
+            snprintf(pname, sizeof pname, "LABELS%d", k);
+        const c3d_param *q = find_param(c, "POINT", pname);
+        if (!q || q->type != -1)
+            break;
+        size_t w = q->ndims >= 1 ? (size_t)q->dims[0] : 1;
+        if (w == 0)
+            break;
+        total += q->count / w;
+    }
+    return total;
+}
+
 /* Copies labels from POINT:LABELS, LABELS2, ... into m. */
 static int c3d_labels(const c3d *c, mdl_markers *m)
 {
@@ -411,6 +434,17 @@ int mdl_markers_parse_c3d(const uint8_t *buf, size_t len, const char *name,
     size_t frames = hi < avail ? hi : avail;
     if (frames > (size_t)1 << 30) {
         r = mdl__err(err, -EFBIG, "%s: %zu frames is too many", name, frames);
+        goto done;
+    }
+    /* every declared point is in the file, as a label or as data of a whole frame (a 4.8 KB file
+     * declaring 65,302 points and no frame, ../shared/repro) */
+    size_t data_points = data_off < len ? (len - data_off) / (4 * word) : 0;
+    size_t labels = c3d_label_count(&c);
+    if (npoints > data_points && npoints > labels) {
+        r = mdl__err(err, MDL_EFORMAT,
+                     "%s: byte 2: the header declares %u points, but the file holds data for %zu "
+                     "and labels for %zu",
+                     name, npoints, data_points, labels);
         goto done;
     }
     r = mdl_markers_create((int)frames, (int)npoints, rate, &m, err);

@@ -200,32 +200,43 @@ static int copy_rig(struct mdl_steer *s, const mdl_rig *r)
     return 0;
 }
 
-int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer **out)
+/* The return value of a parse step that failed: its error code. */
+static int fail_rc(mdl__rbuf *b)
 {
-    *out = NULL;
-    struct mdl_steer *m = mdl__calloc(1, sizeof *m);
-    if (!m)
-        return mdl__err(b->err, -ENOMEM, "%s: out of memory", b->name);
-    if (v1) {
-        /* version 1: the mesh header comes first */
-        mdl__get_name(b, m->name);
-        m->nv = mdl__get_int(b, "vertex count", 1, 1 << 24);
-        m->nf = mdl__get_int(b, "triangle count", 1, 1 << 25);
-        m->topology = mdl__get_u64(b);
-        m->fps = mdl__get_f64(b, "fps");
-        float *bb = mdl__get_f32s(b, 3, "bbox_min");
-        if (bb) {
-            memcpy(m->bbox_min, bb, sizeof m->bbox_min);
-            free(bb);
-        }
-        bb = mdl__get_f32s(b, 3, "bbox_max");
-        if (bb) {
-            memcpy(m->bbox_max, bb, sizeof m->bbox_max);
-            free(bb);
-        }
-    } else if (copy_mesh(m, mm)) {
-        goto oom;
+    return b->rc ? b->rc : (b->rc = MDL_EFORMAT);
+}
+
+static int oom(mdl__rbuf *b)
+{
+    if (!b->rc)
+        b->rc = mdl__err(b->err, -ENOMEM, "%s: out of memory", b->name);
+    return b->rc;
+}
+
+/* version 1 only: the mesh header (name, counts, fingerprint, fps, box) comes first */
+static int parse_header_v1(mdl__rbuf *b, struct mdl_steer *m)
+{
+    mdl__get_name(b, m->name);
+    m->nv = mdl__get_int(b, "vertex count", 1, 1 << 24);
+    m->nf = mdl__get_int(b, "triangle count", 1, 1 << 25);
+    m->topology = mdl__get_u64(b);
+    m->fps = mdl__get_f64(b, "fps");
+    float *bb = mdl__get_f32s(b, 3, "bbox_min");
+    if (bb) {
+        memcpy(m->bbox_min, bb, sizeof m->bbox_min);
+        free(bb);
     }
+    bb = mdl__get_f32s(b, 3, "bbox_max");
+    if (bb) {
+        memcpy(m->bbox_max, bb, sizeof m->bbox_max);
+        free(bb);
+    }
+    return b->rc;
+}
+
+/* the synthesis options, the placement of the result and the heading fit (heading.h) */
+static int parse_options(mdl__rbuf *b, struct mdl_steer *m, const mdl_model *mm, int v1)
+{
     m->virtual_markers = mdl__get_int(b, "virtual_markers", 0, 1);
     m->train_seconds = mdl__get_f64(b, "train_seconds");
     m->beta = mdl__get_f64(b, "beta");
@@ -260,101 +271,126 @@ int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer
     if (m->axis_rec == MDL_AXIS_FIT && !b->rc)
         m->hd_rec = mdl__get_f64s(b, 4 * (size_t)nmk, "recording heading");
     if (b->rc)
-        goto bad;
+        return fail_rc(b);
+    return b->rc;
+}
+
+/* version 1 only: the rest pose and the faces, checked against the fingerprint */
+static int parse_mesh_v1(mdl__rbuf *b, struct mdl_steer *m)
+{
     int nv = m->nv;
-    if (v1) {
-        m->rest = mdl__get_f32s(b, 3 * (size_t)nv, "rest");
-        if (mdl__get_count(b, 3 * (size_t)m->nf, "faces"))
-            goto bad;
-        m->F = mdl__calloc(3 * (size_t)m->nf, sizeof *m->F);
-        if (!m->F)
-            goto oom;
-        for (size_t i = 0; i < 3 * (size_t)m->nf && !b->rc; i++) {
-            m->F[i] = mdl__get_u32(b);
-            if (m->F[i] >= (uint32_t)nv)
-                mdl__rfail(b, "a face index is out of range");
-        }
-        if (b->rc)
-            goto bad;
-        if (mdl_topology_fingerprint(m->F, m->nf, nv) != m->topology) {
-            mdl__rfail(b, "the face list does not match its fingerprint");
-            goto bad;
-        }
+    m->rest = mdl__get_f32s(b, 3 * (size_t)nv, "rest");
+    if (mdl__get_count(b, 3 * (size_t)m->nf, "faces"))
+        return fail_rc(b);
+    m->F = mdl__calloc(3 * (size_t)m->nf, sizeof *m->F);
+    if (!m->F)
+        return oom(b);
+    for (size_t i = 0; i < 3 * (size_t)m->nf && !b->rc; i++) {
+        m->F[i] = mdl__get_u32(b);
+        if (m->F[i] >= (uint32_t)nv)
+            mdl__rfail(b, "a face index is out of range");
     }
+    if (b->rc)
+        return fail_rc(b);
+    if (mdl_topology_fingerprint(m->F, m->nf, nv) != m->topology) {
+        mdl__rfail(b, "the face list does not match its fingerprint");
+        return fail_rc(b);
+    }
+    return b->rc;
+}
+
+/* the training frames, and the rig (inline in version 1, the RIG chunk in version 2) */
+static int parse_training(mdl__rbuf *b, struct mdl_steer *m, const mdl_model *mm, int v1)
+{
+    int nv = m->nv;
     uint32_t nt = mdl__get_u32(b);
     b->at -= 4;
     if (nt > MAX_COUNT) {
         mdl__rfail(b, "training frame count is too large");
-        goto bad;
+        return fail_rc(b);
     }
     m->ntrain = (int)nt;
     m->train_frames = mdl__get_ints(b, nt, "train_frames", 0, 0x7fffffff);
     if (v1) {
         mdl_rig *rig = NULL;
         if (mdl__rig_read(b, nv, &rig))
-            goto bad;
+            return fail_rc(b);
         int rc = copy_rig(m, rig);
         mdl_rig_destroy(rig);
         if (rc)
-            goto oom;
+            return oom(b);
     } else if (!mm->rig) {
         mdl__rfail(b, "a steering model needs a rig chunk");
-        goto bad;
+        return fail_rc(b);
     } else if (copy_rig(m, mm->rig)) {
-        goto oom;
+        return oom(b);
     }
+    return b->rc;
+}
+
+/* the disjoint parts and their shape models (Sec. 4.4, eq. 6) */
+static int parse_parts(mdl__rbuf *b, struct mdl_steer *m)
+{
+    int nv = m->nv;
     int P = m->nparts = mdl__get_int(b, "part count", 1, 1 << 16);
     if (b->rc)
-        goto bad;
+        return fail_rc(b);
     m->part = mdl__get_ints(b, (size_t)nv, "part", 0, P - 1);
     m->part_rms = mdl__get_f64s(b, (size_t)P, "part_rms");
     m->pv_off = mdl__get_ints(b, (size_t)P + 1, "pv_off", 0, MAX_COUNT);
     if (mdl__check_offsets(b, m->pv_off, P, "pv_off"))
-        goto bad;
+        return fail_rc(b);
     m->pv_idx = mdl__get_ints(b, (size_t)m->pv_off[P], "pv_idx", 0, nv - 1);
     m->pmodes = mdl__get_ints(b, (size_t)P, "pmodes", 0, 64);
     m->pm_off = mdl__get_ints(b, (size_t)P + 1, "pm_off", 0, MAX_COUNT);
     m->ps_off = mdl__get_ints(b, (size_t)P + 1, "ps_off", 0, MAX_COUNT);
     if (b->rc)
-        goto bad;
+        return fail_rc(b);
     for (int p = 0; p < P; p++) {
         size_t n = (size_t)(m->pv_off[p + 1] - m->pv_off[p]);
         if (n == 0 || (size_t)m->pm_off[p + 1] - (size_t)m->pm_off[p] != 3 * n * (size_t)m->pmodes[p] ||
             m->ps_off[p + 1] - m->ps_off[p] != m->pmodes[p] || m->pm_off[p + 1] < m->pm_off[p]) {
             mdl__rfail(b, "part mode tables are inconsistent");
-            goto bad;
+            return fail_rc(b);
         }
     }
     if (m->pm_off[0] != 0 || m->ps_off[0] != 0) {
         mdl__rfail(b, "part mode tables do not start at 0");
-        goto bad;
+        return fail_rc(b);
     }
     m->part_mean = mdl__get_f32s(b, 3 * (size_t)m->pv_off[P], "part_mean");
     m->part_modes = mdl__get_f32s(b, (size_t)m->pm_off[P], "part_modes");
     m->part_sigma2 = mdl__get_f64s(b, (size_t)m->ps_off[P], "part_sigma2");
     m->part_explained = mdl__get_f64s(b, (size_t)P, "part_explained");
     if (b->rc)
-        goto bad;
+        return fail_rc(b);
     for (int i = 0; i < m->ps_off[P]; i++)
         if (!(m->part_sigma2[i] > 0)) {
             mdl__rfail(b, "a shape variance is not positive");
-            goto bad;
+            return fail_rc(b);
         }
+    return b->rc;
+}
+
+/* the instances, the limb paths and control points (eq. 2) and the regressions Phi, Psi (eq. 5) */
+static int parse_limbs(mdl__rbuf *b, struct mdl_steer *m)
+{
+    int P = m->nparts;
     int NI = m->ninst = mdl__get_int(b, "instance count", 1, 1 << 20), L = m->nlimbs;
     if (b->rc)
-        goto bad;
+        return fail_rc(b);
     m->inst_part = mdl__get_ints(b, (size_t)NI, "inst_part", 0, P - 1);
     m->inst_limb = mdl__get_ints(b, (size_t)NI, "inst_limb", 0, L - 1);
     m->inst_out = mdl__get_ints(b, (size_t)NI, "inst_out", 0, MAX_COUNT);
     m->inst_shared = mdl__get_ints(b, (size_t)NI, "inst_shared", 0, 1);
     m->lpath_off = mdl__get_ints(b, (size_t)L + 1, "lpath_off", 0, MAX_COUNT);
     if (mdl__check_offsets(b, m->lpath_off, L, "lpath_off"))
-        goto bad;
+        return fail_rc(b);
     m->lpath = mdl__get_ints(b, (size_t)m->lpath_off[L], "lpath", 0, P - 1);
     m->lctrl = mdl__get_f64s(b, 3 * ((size_t)m->lpath_off[L] + L), "control points");
     m->reg = mdl__calloc((size_t)L, sizeof *m->reg);
     if (!m->reg)
-        goto oom;
+        return oom(b);
     for (int l = 0; l < L && !b->rc; l++) {
         mdl_limb_reg *r = &m->reg[l];
         int plen = m->limb_off[l + 1] - m->limb_off[l];
@@ -389,38 +425,54 @@ int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer
             mdl__rfail(b, "a kernel width is not positive");
     }
     if (b->rc)
-        goto bad;
+        return fail_rc(b);
     for (int i = 0; i < NI; i++) {
         const mdl_limb_reg *r = &m->reg[m->inst_limb[i]];
         if (m->inst_out[i] + 7 + m->pmodes[m->inst_part[i]] > r->nout) {
             mdl__rfail(b, "an instance's outputs exceed its regression");
-            goto bad;
+            return fail_rc(b);
         }
     }
+    return b->rc;
+}
+
+/* the synthesis precomputations: alignment order (Sec. 5.1), shape-optimisation factors (eq. 7), blend weights (eq. 8) */
+static int parse_precompute(mdl__rbuf *b, struct mdl_steer *m)
+{
+    int nv = m->nv;
+    int NI = m->ninst;
     m->order = mdl__get_ints(b, (size_t)NI, "order", 0, NI - 1);
     m->order_ov_off = mdl__get_ints(b, (size_t)NI + 1, "order_ov_off", 0, MAX_COUNT);
     if (mdl__check_offsets(b, m->order_ov_off, NI, "order_ov_off"))
-        goto bad;
+        return fail_rc(b);
     m->order_ov = mdl__get_ints(b, (size_t)m->order_ov_off[NI], "order_ov", 0, MAX_COUNT);
     m->sov_off = mdl__get_ints(b, (size_t)NI + 1, "sov_off", 0, MAX_COUNT);
     if (mdl__check_offsets(b, m->sov_off, NI, "sov_off"))
-        goto bad;
+        return fail_rc(b);
     m->sov = mdl__get_ints(b, (size_t)m->sov_off[NI], "sov", 0, MAX_COUNT);
     m->chol_off = mdl__get_ints(b, (size_t)NI + 1, "chol_off", 0, MAX_COUNT);
     if (mdl__check_offsets(b, m->chol_off, NI, "chol_off"))
-        goto bad;
+        return fail_rc(b);
     m->chol = mdl__get_f64s(b, (size_t)m->chol_off[NI], "chol");
     m->blend_off = mdl__get_ints(b, (size_t)nv + 1, "blend_off", 0, MAX_COUNT);
     if (mdl__check_offsets(b, m->blend_off, nv, "blend_off"))
-        goto bad;
+        return fail_rc(b);
     m->blend_inst = mdl__get_ints(b, (size_t)m->blend_off[nv], "blend_inst", 0, NI - 1);
     m->blend_local = mdl__get_ints(b, (size_t)m->blend_off[nv], "blend_local", 0, MAX_COUNT);
     m->blend_w = mdl__get_f32s(b, (size_t)m->blend_off[nv], "blend_w");
+    return b->rc;
+}
+
+/* cross-checks of every local index against the part it indexes, and of the Cholesky factors */
+static int check_local_indices(mdl__rbuf *b, struct mdl_steer *m)
+{
+    int nv = m->nv;
+    int NI = m->ninst;
     /* cross-checks of local indices against part sizes */
     {
         uint8_t *seen = mdl__calloc((size_t)NI, 1);
         if (!seen)
-            goto oom;
+            return oom(b);
         for (int s = 0; s < NI; s++) {
             int i = m->order[s];
             if (seen[i]++)
@@ -462,12 +514,30 @@ int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer
                     mdl__rfail(b, "a Cholesky factor has a non-positive diagonal");
         }
     }
+    return b->rc;
+}
+
+int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer **out)
+{
+    *out = NULL;
+    struct mdl_steer *m = mdl__calloc(1, sizeof *m);
+    if (!m)
+        return mdl__err(b->err, -ENOMEM, "%s: out of memory", b->name);
+    if (v1 ? parse_header_v1(b, m) != 0 : copy_mesh(m, mm) != 0)
+        goto bad_or_oom;
+    if (parse_options(b, m, mm, v1))
+        goto bad;
+    if (v1 && parse_mesh_v1(b, m))
+        goto bad;
+    if (parse_training(b, m, mm, v1) || parse_parts(b, m) || parse_limbs(b, m) ||
+        parse_precompute(b, m) || check_local_indices(b, m))
+        goto bad;
     if (b->rc)
         goto bad;
     *out = m;
     return 0;
-oom:
-    if (!b->rc)
+bad_or_oom:
+    if (!b->rc) /* copy_mesh failed */
         b->rc = mdl__err(b->err, -ENOMEM, "%s: out of memory", b->name);
 bad:
     mdl__steer_free(m);

@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -130,9 +131,12 @@ void harness_start(harness *h, const char *meshsteerd, const char *const *args)
     }
     for (int t = 0; t < 300; t++) { /* up to 30 s: the model loads first */
         char *s = slurp(h->log);
-        const char *p = s ? strstr(s, "listening on http://127.0.0.1:") : NULL;
-        if (p) {
-            h->port = atoi(p + strlen("listening on http://127.0.0.1:"));
+        /* "listening on http://ADDR:PORT/", ADDR an IPv4 address or [IPv6] */
+        const char *p = s ? strstr(s, "listening on http://") : NULL;
+        const char *slash = p ? strchr(p + strlen("listening on http://"), '/') : NULL;
+        const char *colon = slash ? memrchr(p, ':', (size_t)(slash - p)) : NULL;
+        if (colon) {
+            h->port = atoi(colon + 1);
             free(s);
             return;
         }
@@ -160,9 +164,12 @@ int harness_get(const harness *h, const char *path, char **body)
         close(fd);
         return -1;
     }
-    char req[512];
-    int n = snprintf(req, sizeof req, "GET %s HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n",
-                     path);
+    char req[512], auth[128] = "";
+    if (h->token[0])
+        snprintf(auth, sizeof auth, "Authorization: Bearer %s\r\n", h->token);
+    int n = snprintf(req, sizeof req,
+                     "GET %s HTTP/1.1\r\nHost: 127.0.0.1\r\n%sConnection: close\r\n\r\n", path,
+                     auth);
     ASSERT(write(fd, req, (size_t)n) == n);
     size_t cap = 1 << 16, len = 0;
     char *b = malloc(cap + 1);
@@ -182,6 +189,43 @@ int harness_get(const harness *h, const char *path, char **body)
     char *sep = strstr(b, "\r\n\r\n");
     *body = strdup(sep ? sep + 4 : "");
     free(b);
+    return status;
+}
+
+int harness_raw(const harness *h, const char *request, size_t n, char **answer)
+{
+    *answer = NULL;
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)h->port)};
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    struct timeval tv = {5, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    if (connect(fd, (struct sockaddr *)&sa, sizeof sa)) {
+        close(fd);
+        return -1;
+    }
+    for (size_t off = 0; off < n;) {
+        ssize_t w = send(fd, request + off, n - off, MSG_NOSIGNAL);
+        if (w <= 0)
+            break; /* the daemon may close before it has read everything */
+        off += (size_t)w;
+    }
+    size_t cap = 1 << 16, len = 0;
+    char *b = malloc(cap + 1);
+    ssize_t got;
+    while ((got = read(fd, b + len, cap - len)) > 0) {
+        len += (size_t)got;
+        if (len == cap)
+            b = realloc(b, (cap *= 2) + 1);
+    }
+    close(fd);
+    b[len] = '\0';
+    *answer = b;
+    if (len == 0)
+        return -1;
+    int status = 0;
+    if (sscanf(b, "HTTP/1.1 %d", &status) != 1)
+        return 0;
     return status;
 }
 

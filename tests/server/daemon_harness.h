@@ -12,6 +12,7 @@ typedef struct harness {
     char log[1100];
     pid_t pid;
     int port;
+    char token[64]; /* when set, harness_get sends it (Authorization: Bearer) */
 } harness;
 
 /* Makes an empty dir/ (under the build directory) for a test that brings its own files. */
@@ -24,6 +25,10 @@ void harness_fixtures(harness *h, const char *make_model);
 void harness_start(harness *h, const char *meshsteerd, const char *const *args);
 /* GET path; returns the HTTP status, the body in a malloc'd string. */
 int harness_get(const harness *h, const char *path, char **body);
+/* Sends the raw bytes of request (n of them) and reads until the daemon closes or 5 s pass;
+ * returns the HTTP status (0 when the answer is not HTTP, -1 when nothing came) and the whole
+ * answer, headers included, in a malloc'd string. */
+int harness_raw(const harness *h, const char *request, size_t n, char **answer);
 /* The value of a /metrics sample (name with labels, exactly as printed); -1 if absent. */
 double harness_metric(const harness *h, const char *sample);
 /* The values of every sample of a labelled metric family ("name{...} value"), in /metrics order;

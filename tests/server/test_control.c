@@ -49,8 +49,9 @@ int main(void)
         {"{\"type\":\"seek\",\"frame\":1.5}", "bad_field", "seek"},
         {"{\"type\":\"seek\",\"frame\":\"10\"}", "bad_field", "seek"},
         {"{\"type\":\"seek\",\"frame\":1e12}", "bad_field", "seek"},
-        {"{\"type\":\"speed\",\"speed\":0}", "bad_field", "speed"},
-        {"{\"type\":\"speed\",\"speed\":101}", "bad_field", "speed"},
+        /* the range is the source's (drv_source_control), the type is the message's */
+        {"{\"type\":\"speed\",\"speed\":\"2\"}", "bad_field", "speed"},
+        {"{\"type\":\"speed\",\"speed\":true}", "bad_field", "speed"},
         {"{\"type\":\"ping\",\"id\":{}}", "bad_field", NULL},
         {"{\"type\":\"ping\",\"id\":\"0123456789012345678901234567890123456789012345678901234567890123456789\"}",
          "bad_field", NULL},
@@ -90,6 +91,27 @@ int main(void)
     j = cJSON_ParseWithLength(buf, n);
     ASSERT(j && !strcmp(cJSON_GetObjectItem(j, "type")->valuestring, "error"));
     cJSON_Delete(j);
+    /* UTF-8: a field name cut at 64 bytes loses the whole character that straddles the cut (a
+     * lone 0xC3 made clients fail the connection with 1007); not-UTF-8 input is malformed; an
+     * error text with invalid bytes is repaired */
+    char txt[128];
+    snprintf(txt, sizeof txt, "{\"type\":\"ping\",\"%s\xc3\xa9\":1}",
+             "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa"); /* 63 a's */
+    ASSERT(parse(txt, &c, &code, msg) == -1);
+    ASSERT(!strcmp(code, "bad_field"));
+    printf("field name cut: %s\n", msg);
+    ASSERT(strstr(msg, "aaa'") && !strchr(msg, '\xc3'));
+    n = srv_reply_error(buf, code, msg, &c);
+    ASSERT(srv__utf8_valid(buf, n));
+    ASSERT(parse("{\"type\":\"ping\",\"id\":\"\xc3\"}", &c, &code, msg) == -1);
+    ASSERT(!strcmp(code, "malformed"));
+    n = srv_reply_error(buf, "source_error", "replay /tmp/\xe9t\xc3\xa9.c3d: \xf0\x9f", &c);
+    ASSERT(srv__utf8_valid(buf, n));
+    ASSERT(strstr(buf, "/tmp/?t\xc3\xa9.c3d: ??"));
+    ASSERT(srv__utf8_valid("\xe2\x82\xac\xf0\x9f\x98\x80", 7));
+    ASSERT(!srv__utf8_valid("\xc0\xaf", 2));         /* overlong */
+    ASSERT(!srv__utf8_valid("\xed\xa0\x80", 3));     /* surrogate */
+    ASSERT(!srv__utf8_valid("\xf4\x90\x80\x80", 4)); /* above U+10FFFF */
     /* kind names and kind sets, as the hello and the unsupported reply use them */
     ASSERT(!strcmp(srv_control_name(SRV_CTL_PAUSE), "pause"));
     ASSERT(!strcmp(srv_control_name(SRV_CTL_SEEK), "seek"));

@@ -60,7 +60,7 @@ int main(void)
     const uint8_t bound[3] = {1, 0, 1}; /* a -> source 2, b unbound, c -> source 0 */
     const char *names[3] = {"C", "X", "A"};
     const char *lookup[3] = {"A", "cam_b", "C"}; /* b looks up cam_b, which the source lacks */
-    srv_source_desc src = {"replay:x.csv", "replay", 60, 3, names,
+    srv_source_desc src = {"replay:x.csv", "replay", 60, 240, 3, names,
                            SRV_CTL_BIT(SRV_CTL_PAUSE) | SRV_CTL_BIT(SRV_CTL_RESUME) |
                                SRV_CTL_BIT(SRV_CTL_SPEED),
                            lookup, bound, 0};
@@ -77,10 +77,25 @@ int main(void)
     ASSERT(strstr((char *)g->hello, "{\"name\":\"a\",\"source\":\"A\",\"live\":\"A\",\"bound\":true}"));
     /* exactly the controls the source takes, in the documented order */
     ASSERT(strstr((char *)g->hello, "\"controls\":[\"pause\",\"resume\",\"speed\"]"));
+    ASSERT(strstr((char *)g->hello, "\"frames\":240"));
     ASSERT_INT_EQ(strlen((char *)g->hello), g->hello_len);
     {
+        /* a file's label that is not UTF-8 (Latin-1 "Kn\xe9") reaches the hello, a text frame,
+         * as valid UTF-8 ("Kn?") */
+        srv_source_desc latin = {"replay:\xe9.c3d", "replay", 60, 0, 3, names, 0, NULL, bound, 0};
+        mdl_rig_marker m2[3] = {{"Kn\xe9", "", 0}, {"b", "", 1}, {"c", "C", 4}};
+        mdl_model_info i2 = info;
+        i2.markers = m2;
+        srv_gen *g3 = NULL;
+        ASSERT_OK(srv_gen_create(&i2, &latin, 9, &g3, err), err);
+        ASSERT(srv__utf8_valid((char *)g3->hello, g3->hello_len));
+        ASSERT(strstr((char *)g3->hello, "\"name\":\"Kn?\""));
+        ASSERT(strstr((char *)g3->hello, "\"spec\":\"replay:?.c3d\""));
+        srv_gen_unref(g3);
+    }
+    {
         /* no label map (live = the marker's own label) and a source without controls */
-        srv_source_desc plain = {"openni2:", "openni2", 30, 3, names, 0, NULL, bound, 0};
+        srv_source_desc plain = {"openni2:", "openni2", 30, 0, 3, names, 0, NULL, bound, 0};
         srv_gen *g2 = NULL;
         ASSERT_OK(srv_gen_create(&info, &plain, 8, &g2, err), err);
         ASSERT(strstr((char *)g2->hello, "{\"name\":\"b\",\"source\":\"b\",\"live\":\"b\",\"bound\":false}"));

@@ -1,0 +1,143 @@
+/* gltf_fixture.c - the C half of the glTF check (issue 10; gltf_three.mjs is the reader's half):
+ * fits a skin to the built-in example creature (48 frames, 8 bones, 4 influences; no shared data
+ * needed), writes OUT/skin.glb with mdl_skin_write_gltf and OUT/expected.bin with our own
+ * reconstruction of fitted frames 0, N/2 and N-1:
+ *     v_i(f) = sum_s w_is (R_b^f p_i + t_b^f)     (Le & Deng's LBS model, ssdr.h)
+ * in double from the skin's weights and bone transforms (mdl_skin_get), the fit's own definition
+ * of frame f. The skin kind's clock synthesis (mdl_synth_frame at t = f / fps, float, quaternion
+ * blend) is checked against it here too, so the reference is what the daemon plays as well.
+ *
+ * expected.bin, little-endian float64 throughout:
+ *     nv, nsel (3), diag (rest bounding-box diagonal), fps,
+ *     nsel x (frame index, time f / fps),
+ *     nsel x nv x 3 positions.
+ * Usage: gltf_fixture OUTDIR */
+#include "model.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define NFRAMES 48
+#define NBONES 8
+#define NINFL 4
+
+int main(int argc, char **argv)
+{
+    if (argc != 2) {
+        fprintf(stderr, "usage: %s OUTDIR\n", argv[0]);
+        return 2;
+    }
+    char err[MDL_ERR_LEN] = "", path[4096];
+    mdl_meshseq *seq = NULL;
+    if (mdl_example_create(NFRAMES, &seq, NULL, err)) {
+        fprintf(stderr, "example: %s\n", err);
+        return 1;
+    }
+    int frames[NFRAMES];
+    for (int f = 0; f < NFRAMES; f++)
+        frames[f] = f;
+    mdl_skin_opts o;
+    mdl_skin_opts_default(&o);
+    o.bones = NBONES;
+    o.max_influences = NINFL;
+    o.name = "example";
+    mdl_model *m = NULL;
+    if (mdl_skin_fit(seq, frames, NFRAMES, &o, &m, err)) {
+        fprintf(stderr, "skin: %s\n", err);
+        return 1;
+    }
+    snprintf(path, sizeof path, "%s/skin.glb", argv[1]);
+    if (mdl_skin_write_gltf(m, path, err)) {
+        fprintf(stderr, "gltf: %s\n", err);
+        return 1;
+    }
+
+    int nb, K, nfr;
+    const int *bone;
+    const double *w, *T;
+    if (mdl_skin_get(m, &nb, &K, &nfr, &bone, &w, &T) || nb != NBONES || K != NINFL ||
+        nfr != NFRAMES) {
+        fprintf(stderr, "skin: unexpected shape\n");
+        return 1;
+    }
+    mdl_model_info info;
+    mdl_model_get_info(m, &info);
+    int nv = info.nv;
+    double fps = info.fps > 0 ? info.fps : 30;
+    double mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int i = 0; i < nv; i++)
+        for (int c = 0; c < 3; c++) {
+            mn[c] = fmin(mn[c], info.rest[3 * i + c]);
+            mx[c] = fmax(mx[c], info.rest[3 * i + c]);
+        }
+    double diag = sqrt((mx[0] - mn[0]) * (mx[0] - mn[0]) + (mx[1] - mn[1]) * (mx[1] - mn[1]) +
+                       (mx[2] - mn[2]) * (mx[2] - mn[2]));
+
+    const int sel[3] = {0, nfr / 2, nfr - 1};
+    size_t nd = 4 + 2 * 3 + 3 * (size_t)nv * 3;
+    double *out = calloc(nd, sizeof *out);
+    float *V = calloc(3 * (size_t)nv, sizeof *V);
+    mdl_synth *s = NULL;
+    if (!out || !V || mdl_synth_create(m, 0, &s, err)) {
+        fprintf(stderr, "synth: %s\n", err[0] ? err : "out of memory");
+        return 1;
+    }
+    out[0] = nv;
+    out[1] = 3;
+    out[2] = diag;
+    out[3] = fps;
+    double worst_synth = 0;
+    for (int k = 0; k < 3; k++) {
+        int f = sel[k];
+        out[4 + 2 * k] = f;
+        out[5 + 2 * k] = f / fps;
+        double *P = out + 10 + 3 * (size_t)nv * k;
+        for (int i = 0; i < nv; i++) {
+            const float *p = info.rest + 3 * (size_t)i;
+            for (int q = 0; q < K; q++) {
+                double x = w[(size_t)K * i + q];
+                if (x == 0)
+                    continue;
+                const double *M = T + 12 * ((size_t)f * nb + bone[(size_t)K * i + q]);
+                for (int c = 0; c < 3; c++)
+                    P[3 * i + c] += x * (M[3 * c] * p[0] + M[3 * c + 1] * p[1] + M[3 * c + 2] * p[2] +
+                                         M[9 + c]);
+            }
+        }
+        mdl_synth_input in = {.t = f / fps};
+        if (mdl_synth_frame(s, &in, V, NULL)) {
+            fprintf(stderr, "synth frame %d failed\n", f);
+            return 1;
+        }
+        double e = 0;
+        for (size_t i = 0; i < 3 * (size_t)nv; i++)
+            e = fmax(e, fabs(V[i] - P[i]));
+        worst_synth = fmax(worst_synth, e);
+        printf("frame %d (t = %.6f s): clock synthesis vs reconstruction, max |d| %.3g (%.3g of the "
+               "diagonal)\n",
+               f, f / fps, e, e / diag);
+    }
+    mdl_skin_stats st;
+    mdl_skin_get_stats(m, &st);
+    printf("skin: %d vertices, %d bones, %d influences, %d frames at %g fps, rmse %.3g, diagonal %.4f\n",
+           nv, nb, K, nfr, fps, st.rmse, diag);
+    snprintf(path, sizeof path, "%s/expected.bin", argv[1]);
+    FILE *fp = fopen(path, "wb");
+    if (!fp || fwrite(out, sizeof *out, nd, fp) != nd || fclose(fp)) {
+        fprintf(stderr, "%s: write failed\n", path);
+        return 1;
+    }
+    int rc = 0;
+    if (worst_synth > 1e-5 * diag) { /* float synthesis: a few ulps of the diagonal */
+        fprintf(stderr, "the clock synthesis does not reproduce the fitted frames\n");
+        rc = 1;
+    }
+    mdl_synth_destroy(s);
+    mdl_model_destroy(m);
+    mdl_meshseq_destroy(seq);
+    free(out);
+    free(V);
+    return rc;
+}
