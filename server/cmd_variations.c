@@ -355,13 +355,12 @@ int cmd_variations(int argc, char **argv)
                                 (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec));
         cJSON_AddItemToObject(jo, "variations", jvars);
         jvars = NULL;
-        char *js = cJSON_Print(jo);
-        if (!js) {
+        int pr = cli_print_json(jo);
+        jo = NULL;
+        if (pr) {
             status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
             goto out;
         }
-        puts(js);
-        free(js);
     }
     status = CLI_EXIT_OK;
 out:
