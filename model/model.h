@@ -431,6 +431,71 @@ int mdl_skin_get(const mdl_model *m, int *nb, int *K, int *nframes, const int **
  * animation (translation + rotation per bone per fitted frame). Needs K <= 4. */
 int mdl_skin_write_gltf(const mdl_model *m, const char *path, char *err);
 
+/* ------------------------------------------------------------------ variations (Zheng 2013, variations/) */
+
+/* Endless different animations from one example, on the bones of its skin (Zheng 2013, Sec. 3):
+ * transitions between frames whose reduced, rigid-invariant bone coordinates are close (Sec. 3.2),
+ * spliced with the reference bone matched rigidly (eq. 7) and the other bones blended linearly in
+ * its frame over a window (the comparison of Fig. 6), walked at random on the motion graph
+ * (Sec. 3.4). The output is bone transforms (compact, resolution-independent); vertices come from
+ * the skin only when asked. docs/MODEL.md says where this departs from the paper. */
+typedef struct mdl_variations mdl_variations;
+
+typedef struct mdl_variations_opts {
+    double svd_tol;     /* eq. 4: singular values below svd_tol x the largest are dropped */
+    double tc_factor;   /* T_c = tc_factor x max_i D(i, i-1) (Sec. 3.2) ... */
+    double threshold;   /* ... unless > 0: T_c itself */
+    int min_gap;        /* transitions (i, j) need |i - j| > min_gap (a frame is close to its
+                           neighbours; only other valleys of D(i, .) are transitions) */
+    int blend;          /* output frames over which a splice is blended (0: none) */
+    double jump_prob;   /* per output frame, the chance of taking a transition where one is open */
+    double temperature; /* which one: chance ~ exp(-D / (temperature x max_i D(i, i-1))), as in
+                           video textures (Schoedl et al. 2000); 0: uniform */
+    int min_segment;    /* output frames between two transitions at least (unless at a dead end) */
+    int start;          /* the input frame walks start at; -1: a random one (of the seed) */
+} mdl_variations_opts;
+
+/* svd_tol 0.005, tc_factor 40, threshold 0, min_gap 3, blend 8, jump_prob 0.2, temperature 0.1,
+ * min_segment 8, start -1 (the paper's values where it gives them). */
+void mdl_variations_opts_default(mdl_variations_opts *o);
+
+typedef struct mdl_variations_stats {
+    int bones, frames;  /* of the skin */
+    int ref_bone;       /* b_r: the bone of the largest weight sum */
+    int rank;           /* length of the reduced coordinates q_i (eq. 4) */
+    int transitions;    /* directed candidate transitions (i, j) */
+    int alive_frames;   /* frames from which a walk can go on for ever */
+    double alpha, beta; /* the weights of eq. 5 */
+    double max_adjacent;/* max_i D(i, i-1) */
+    double tc;          /* T_c */
+} mdl_variations_stats;
+
+/* The transition graph of the skin in m (-ENOENT when m holds none; -EDOM with fewer than 4
+ * frames or more than 16384, or fewer than 2 bones). o may be NULL for defaults. Allocates *out (mdl_variations_destroy); m may be
+ * destroyed afterwards (the graph keeps what it needs). */
+int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_variations **out,
+                         char *err);
+void mdl_variations_destroy(mdl_variations *v);
+void mdl_variations_get_stats(const mdl_variations *v, mdl_variations_stats *st);
+/* Transition k (0 <= k < transitions): frames (from, to) and its cost D. -ERANGE otherwise. */
+int mdl_variations_transition(const mdl_variations *v, int k, int *from, int *to, double *cost);
+/* D(i, j) of eq. 5 for 1 <= i, j < frames (NAN otherwise). */
+double mdl_variations_cost(const mdl_variations *v, int i, int j);
+/* A random walk of `frames` output frames, reproducible from `seed`: T (frames x bones x 12, R
+ * row-major then t, as mdl_skin_get) gets the bone transforms; V (frames x nv x 3, may be NULL)
+ * the skinned vertices; src (frames, may be NULL) the input frame of each output frame.
+ * -ENOENT when the graph has no frame a walk can go on for ever from (no transitions). */
+int mdl_variations_walk(const mdl_variations *v, uint64_t seed, int frames, double *T, float *V,
+                        int *src, char *err);
+/* Makes the skin of m play an endless random walk (seed, o: NULL for defaults) on its example's
+ * transition graph instead of looping the fitted frames: mdl_synth_create of the skin kind then
+ * rebuilds the graph, and mdl_synth_frame at clock t shows the walk's frame t x fps (the
+ * daemon's idle source). Stored in the model file (the SKIN chunk, docs/FORMATS.md). -ENOENT
+ * without a skin; the errors of mdl_variations_build, and -ENOENT when no walk can go on. */
+int mdl_variations_attach(mdl_model *m, const mdl_variations_opts *o, uint64_t seed, char *err);
+/* 1 when the skin of m walks (*o, *seed filled; either may be NULL), else 0. */
+int mdl_variations_attached(const mdl_model *m, mdl_variations_opts *o, uint64_t *seed);
+
 /* A Python-style slice (frames.c) "start:stop[:step]" (also "N" and ":"), resolved against `count`.
  * Allocates *idx. */
 int mdl_parse_frames(const char *spec, int count, int **idx, int *n, char *err);

@@ -14,6 +14,7 @@ int cmd_bench(int argc, char **argv);
 int cmd_demo(int argc, char **argv);
 int cmd_markers(int argc, char **argv);
 int cmd_skin(int argc, char **argv); /* cmd_skin.c */
+int cmd_variations(int argc, char **argv); /* cmd_variations.c */
 
 /* render and example commands (cmd_render.c, cmd_example.c) */
 
@@ -31,6 +32,7 @@ static const cli_command commands[] = {
     {"eval", "measure a model against ground-truth frames (JSON)", cmd_eval},
     {"inspect", "summarise a model file", cmd_inspect},
     {"skin", "decompose a mesh animation into a skin with rigid bones (SSDR), glTF export", cmd_skin},
+    {"variations", "many different animations of any length from a skin's example (PC2)", cmd_variations},
     {"bench", "time training and per-frame synthesis (median, p99)", cmd_bench},
     {"markers", "write the rig vertices of a mesh sequence as a marker file", cmd_markers},
 

@@ -57,6 +57,24 @@ int mdl_la_syev(int n, double *A, int lda, double *w, char *err)
     return check_info("dsyev", info, err);
 }
 
+int mdl_la_gesvd(int m, int n, double *A, int lda, double *s, double *U, int ldu, double *VT,
+                 int ldvt, char *err)
+{
+    double q;
+    lapack_int info = LAPACKE_dgesvd_work(LAPACK_COL_MAJOR, 'S', 'S', m, n, A, lda, s, U, ldu, VT,
+                                          ldvt, &q, -1);
+    if (info != 0)
+        return check_info("dgesvd (workspace query)", info, err);
+    lapack_int lwork = (lapack_int)q;
+    double *work = malloc(sizeof(double) * (size_t)(lwork > 1 ? lwork : 1));
+    if (!work)
+        return mdl__err(err, -ENOMEM, "dgesvd: out of memory for workspace");
+    info = LAPACKE_dgesvd_work(LAPACK_COL_MAJOR, 'S', 'S', m, n, A, lda, s, U, ldu, VT, ldvt, work,
+                               lwork);
+    free(work);
+    return check_info("dgesvd", info, err);
+}
+
 int mdl_la_potrf(int n, double *A, int lda, char *err)
 {
     return check_info("dpotrf", LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'U', n, A, lda), err);

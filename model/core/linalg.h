@@ -25,6 +25,12 @@ void mdl_la_sgemv(char ta, int m, int n, float alpha, const float *A, int lda, c
  * eigenvalues in ascending order. Allocates its workspace (training only). */
 int mdl_la_syev(int n, double *A, int lda, double *w, char *err);
 
+/* Thin singular value decomposition (dgesvd, jobu = jobvt = 'S'): A (m x n, overwritten) =
+ * U diag(s) VT with U m x min(m,n) (ldu), s min(m,n) descending, VT min(m,n) x n (ldvt).
+ * Allocates its workspace (analysis only). MDL_ENUMERIC when the QR iteration does not converge. */
+int mdl_la_gesvd(int m, int n, double *A, int lda, double *s, double *U, int ldu, double *VT,
+                 int ldvt, char *err);
+
 /* Cholesky factorisation of a symmetric positive definite matrix (dpotrf, upper), then solves with
  * it (dpotrs) for nrhs right-hand sides. No allocation: usable per frame. */
 int mdl_la_potrf(int n, double *A, int lda, char *err);

@@ -1,10 +1,18 @@
-/* play.c - the skin kind's synthesis (MDL_INPUT_CLOCK): the fitted bone animation, looping at the
- * example's fps, skinned by linear blending (Le & Deng 2012's model, ssdr.h (LBS)):
+/* play.c - the skin kind's synthesis (MDL_INPUT_CLOCK), skinned by linear blending (Le & Deng
+ * 2012's model, ssdr.h (LBS)):
  *   v_i(t) = sum_s w_is (R_b(t) p_i + t_b(t)),   b = bone of slot s,
- * with R_b(t), t_b(t) between fitted frames a = floor(t fps) mod n and a + 1 (mod n, so the loop
- * closes) by normalised quaternion lerp and linear translation. This is what the daemon's idle
- * source plays until the variations of Zheng 2013 exist. Per frame: no allocation, float. */
+ * with R_b(t), t_b(t) between two frames a = floor(t fps) and a + 1 by normalised quaternion lerp
+ * and linear translation. The frames are
+ *   - without variations: the fitted bone animation, looping (a mod n, a + 1 mod n: the loop
+ *     closes with whatever jump the example has);
+ *   - with variations (mdl_variations_attach): frames a and a + 1 of an endless random walk on
+ *     the example's transition graph (Zheng 2013, variations/), rebuilt here at create. The walk
+ *     only steps forward: a later t steps it on (more than 100000 frames ahead, it carries on from
+ *     where it is), an earlier t replays it from its start, so equal clocks give equal frames.
+ * This is what the daemon's idle source plays. Per frame: no allocation, float (the walk's own
+ * steps are double). */
 #include "skin/skin_internal.h"
+#include "variations/variations.h"
 #include "kind.h"
 #include "core/rigid.h"
 #include "core/util.h"
@@ -23,6 +31,14 @@ typedef struct skin_play {
     float *q;      /* nframes x nb x 4 (w, x, y, z) */
     float *tr;     /* nframes x nb x 3 */
     float *M;      /* nb x 12 scratch: the blended transforms of the current time */
+    /* with variations */
+    mdl_variations *vars;
+    mdl__vwalk walk;
+    int walking;
+    uint64_t seed;
+    double *Ta, *Tb;   /* nb x 12: walk frames at - 1 and at */
+    long long at;      /* -1: not started */
+    float *wq, *wt;    /* 2 x nb x 4, 2 x nb x 3: Ta, Tb as quaternions and translations */
 } skin_play;
 
 void mdl__skin_synth_destroy(void *state)
@@ -36,6 +52,13 @@ void mdl__skin_synth_destroy(void *state)
     free(p->q);
     free(p->tr);
     free(p->M);
+    if (p->walking)
+        mdl__vwalk_fini(&p->walk);
+    mdl_variations_destroy(p->vars);
+    free(p->Ta);
+    free(p->Tb);
+    free(p->wq);
+    free(p->wt);
     free(p);
 }
 
@@ -75,8 +98,56 @@ int mdl__skin_synth_create(const mdl_model *m, const void *impl, void **state, c
         for (int c = 0; c < 3; c++)
             p->tr[3 * f + c] = (float)k->T[12 * f + 9 + c];
     }
+    if (k->has_vars) {
+        int rc = mdl_variations_build(m, &k->vars, &p->vars, err);
+        if (!rc)
+            rc = mdl__vwalk_init(&p->walk, p->vars, k->vars_seed, err);
+        if (rc) {
+            mdl__skin_synth_destroy(p);
+            return rc;
+        }
+        p->walking = 1;
+        p->seed = k->vars_seed;
+        p->at = -1;
+        p->Ta = mdl__calloc(12 * (size_t)k->nb, sizeof *p->Ta);
+        p->Tb = mdl__calloc(12 * (size_t)k->nb, sizeof *p->Tb);
+        p->wq = mdl__calloc(8 * (size_t)k->nb, sizeof *p->wq);
+        p->wt = mdl__calloc(6 * (size_t)k->nb, sizeof *p->wt);
+        if (!p->Ta || !p->Tb || !p->wq || !p->wt) {
+            mdl__skin_synth_destroy(p);
+            return mdl__err(err, -ENOMEM, "skin synthesis: out of memory");
+        }
+    }
     *state = p;
     return 0;
+}
+
+/* the walk's frames n and n + 1 into wq, wt (slots 0 and 1) */
+static void walk_to(skin_play *p, long long n)
+{
+    if (p->at < 0 || n + 1 < p->at) {
+        mdl__vwalk_reset(&p->walk, p->seed);
+        mdl__vwalk_step(&p->walk, p->Tb);
+        p->at = 0;
+    }
+    if (n + 1 - p->at > 100000)
+        p->at = n; /* far ahead: carry on from here */
+    while (p->at < n + 1) {
+        memcpy(p->Ta, p->Tb, 12 * (size_t)p->nb * sizeof *p->Ta);
+        mdl__vwalk_step(&p->walk, p->Tb);
+        p->at++;
+    }
+    for (int s = 0; s < 2; s++)
+        for (int j = 0; j < p->nb; j++) {
+            const double *M = (s ? p->Tb : p->Ta) + 12 * (size_t)j;
+            double q[4];
+            mdl__mat_to_quat(M, q);
+            double nq = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+            for (int c = 0; c < 4; c++)
+                p->wq[4 * ((size_t)s * p->nb + j) + c] = (float)(q[c] / nq);
+            for (int c = 0; c < 3; c++)
+                p->wt[3 * ((size_t)s * p->nb + j) + c] = (float)M[9 + c];
+        }
 }
 
 void mdl__skin_synth_reset(void *state)
@@ -91,17 +162,38 @@ int mdl__skin_synth_frame(void *state, const mdl_synth_input *in, float *V, mdl_
         memset(info, 0, sizeof *info);
     if (!in || !isfinite(in->t))
         return -EINVAL;
-    double f = fmod(in->t * p->fps, (double)p->nframes);
-    if (f < 0)
-        f += p->nframes;
-    int a = (int)f;
-    if (a >= p->nframes)
-        a = p->nframes - 1;
-    int b = (a + 1) % p->nframes;
-    float al = (float)(f - a);
+    const float *Q0, *Q1, *T0, *T1; /* frames a and b: nb x 4 quaternions, nb x 3 translations */
+    float al;
+    if (p->walking) {
+        double f = in->t * p->fps;
+        if (!(f >= 0))
+            f = 0;
+        if (f > 4e15)
+            f = 4e15;
+        long long n = (long long)f;
+        walk_to(p, n);
+        al = (float)(f - (double)n);
+        Q0 = p->wq;
+        Q1 = p->wq + 4 * (size_t)p->nb;
+        T0 = p->wt;
+        T1 = p->wt + 3 * (size_t)p->nb;
+    } else {
+        double f = fmod(in->t * p->fps, (double)p->nframes);
+        if (f < 0)
+            f += p->nframes;
+        int a = (int)f;
+        if (a >= p->nframes)
+            a = p->nframes - 1;
+        int b = (a + 1) % p->nframes;
+        al = (float)(f - a);
+        Q0 = p->q + 4 * (size_t)a * p->nb;
+        Q1 = p->q + 4 * (size_t)b * p->nb;
+        T0 = p->tr + 3 * (size_t)a * p->nb;
+        T1 = p->tr + 3 * (size_t)b * p->nb;
+    }
     for (int j = 0; j < p->nb; j++) {
-        const float *qa = p->q + 4 * ((size_t)a * p->nb + j), *qb = p->q + 4 * ((size_t)b * p->nb + j);
-        const float *ta = p->tr + 3 * ((size_t)a * p->nb + j), *tb = p->tr + 3 * ((size_t)b * p->nb + j);
+        const float *qa = Q0 + 4 * (size_t)j, *qb = Q1 + 4 * (size_t)j;
+        const float *ta = T0 + 3 * (size_t)j, *tb = T1 + 3 * (size_t)j;
         float sg = qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3] < 0 ? -1.f : 1.f;
         float q[4], n = 0;
         for (int c = 0; c < 4; c++) {

@@ -8,6 +8,10 @@
  *   f64 w[nv K]                   weights: >= 0, each vertex's sum 1 within 1e-6
  *   f64 T[nframes nb 12]          R (row-major, orthonormal within 1e-6) then t, per frame, bone
  *   u32 iterations, f64 rmse, rmse_over_diag, max_err, diag, seconds
+ * and, only when the synthesis walks the example's transition graph (mdl_variations_attach):
+ *   u32 1, f64 svd_tol, tc_factor, threshold, u32 min_gap, blend, f64 jump_prob, temperature,
+ *   u32 min_segment, i32 start, u64 seed          (mdl_variations_opts, model.h)
+ * (readers before it refuse a chunk with the trailer: "bytes of it were not read")
  * Loading checks every count, index, weight sum and rotation: a corrupt file gives a clear error. */
 #include "skin/skin_internal.h"
 #include "kind.h"
@@ -56,6 +60,19 @@ static void skin_save(const void *impl, const mdl_model *m, mdl__wbuf *b)
     mdl__put_f64(b, k->st.max_err);
     mdl__put_f64(b, k->st.diag);
     mdl__put_f64(b, k->st.seconds);
+    if (k->has_vars) {
+        mdl__put_u32(b, 1);
+        mdl__put_f64(b, k->vars.svd_tol);
+        mdl__put_f64(b, k->vars.tc_factor);
+        mdl__put_f64(b, k->vars.threshold);
+        mdl__put_u32(b, (uint32_t)k->vars.min_gap);
+        mdl__put_u32(b, (uint32_t)k->vars.blend);
+        mdl__put_f64(b, k->vars.jump_prob);
+        mdl__put_f64(b, k->vars.temperature);
+        mdl__put_u32(b, (uint32_t)k->vars.min_segment);
+        mdl__put_u32(b, (uint32_t)k->vars.start);
+        mdl__put_u64(b, k->vars_seed);
+    }
 }
 
 static int skin_parse(mdl__rbuf *b, const mdl_model *m, void **impl)
@@ -89,6 +106,25 @@ static int skin_parse(mdl__rbuf *b, const mdl_model *m, void **impl)
     k->st.max_err = mdl__get_f64(b, "max_err");
     k->st.diag = mdl__get_f64(b, "diag");
     k->st.seconds = mdl__get_f64(b, "seconds");
+    if (!b->rc && b->at < b->n) {
+        k->has_vars = mdl__get_int(b, "variations flag", 1, 1);
+        k->vars.svd_tol = mdl__get_f64(b, "variations svd_tol");
+        k->vars.tc_factor = mdl__get_f64(b, "variations tc_factor");
+        k->vars.threshold = mdl__get_f64(b, "variations threshold");
+        k->vars.min_gap = mdl__get_int(b, "variations min_gap", 0, 1 << 24);
+        k->vars.blend = mdl__get_int(b, "variations blend", 0, 1 << 24);
+        k->vars.jump_prob = mdl__get_f64(b, "variations jump_prob");
+        k->vars.temperature = mdl__get_f64(b, "variations temperature");
+        k->vars.min_segment = mdl__get_int(b, "variations min_segment", 0, 1 << 24);
+        k->vars.start = (int32_t)mdl__get_u32(b);
+        k->vars_seed = mdl__get_u64(b);
+        if (!b->rc && (!(k->vars.svd_tol >= 0 && k->vars.svd_tol < 1) ||
+                       !(k->vars.tc_factor > 0 || k->vars.threshold > 0) ||
+                       !(k->vars.threshold >= 0) || !(k->vars.jump_prob >= 0 && k->vars.jump_prob <= 1) ||
+                       !(k->vars.temperature >= 0) || k->vars.start < -1 ||
+                       k->vars.start >= k->nframes))
+            mdl__rfail(b, "variations options out of range");
+    }
     for (int i = 0; !b->rc && i < k->nv; i++) {
         double sum = 0;
         for (int q = 0; q < k->K; q++) {
@@ -155,6 +191,11 @@ static void skin_describe(const void *impl, const mdl_model *m, char *buf, size_
                  k->st.iterations, k->st.seconds);
     mdl__appendf(buf, len, at, "error      rmse %.6g (%.4f %% of the diagonal %.4g), max %.6g\n",
                  k->st.rmse, 100 * k->st.rmse_over_diag, k->st.diag, k->st.max_err);
+    if (k->has_vars)
+        mdl__appendf(buf, len, at, "plays      an endless random walk on the transition graph (Zheng "
+                     "2013), seed %llu\n", (unsigned long long)k->vars_seed);
+    else
+        mdl__appendf(buf, len, at, "plays      the fitted frames, looping\n");
 }
 
 static void skin_report(const void *impl, const mdl_model *m, void *obj)

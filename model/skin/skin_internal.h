@@ -5,6 +5,9 @@
  *   T         nframes x nb x 12: R (row-major 3x3, a rotation) then t, for the fitted frames in
  *             order: v_i^f = sum_s w[K i + s] (R_b p_i + t_b), b = bone[K i + s], p = the rest pose
  *   part      nv: the bone of largest weight (model info, for colouring)
+ *   has_vars  1 when the synthesis plays an endless random walk on the example's transition
+ *             graph (variations/, mdl_variations_attach) with vars and vars_seed, instead of
+ *             looping the fitted frames
  * The rest pose, faces and fps are the model's (kind.h). */
 #ifndef MESHSTEER_MODEL_SKIN_INTERNAL_H
 #define MESHSTEER_MODEL_SKIN_INTERNAL_H
@@ -19,6 +22,9 @@ struct mdl_skin {
     int *frames;
     int *part;
     mdl_skin_stats st;
+    int has_vars;
+    mdl_variations_opts vars;
+    uint64_t vars_seed;
 };
 
 

@@ -1,7 +1,8 @@
 /* make_model_seed.c - writes small models of the test tube (tests/model/tube.h) as the seeds of
  * fuzz_model, so that the seeds always match the current file version and hold every kind's chunk:
- * OUT a steering model with a skin of the same frames beside it (MESH, RIG, STER, SKIN), OUT2 a
- * harmonic model of the tube's first frame (MESH, HARM). Usage: make_model_seed OUT OUT2 */
+ * OUT a steering model with a skin of the same frames beside it (MESH, RIG, STER, SKIN, the skin
+ * walking its transition graph: the SKIN chunk's variations trailer), OUT2 a harmonic model of
+ * the tube's first frame (MESH, HARM). Usage: make_model_seed OUT OUT2 */
 #include "model/tube.h"
 #include "model.h"
 
@@ -34,6 +35,12 @@ int main(int argc, char **argv)
         rc = mdl_skin_fit(s, frames, 12, &so, &skin, err);
     if (!rc)
         rc = mdl_model_merge(m, &skin, err);
+    if (!rc) { /* any threshold: the seed needs a trailer, not good transitions */
+        mdl_variations_opts vo;
+        mdl_variations_opts_default(&vo);
+        vo.threshold = 1e300;
+        rc = mdl_variations_attach(m, &vo, 1, err);
+    }
     if (!rc)
         rc = mdl_model_save(m, argv[1], err);
     mdl_harmonic_opts ho;

@@ -2,8 +2,9 @@
  * the example's trot marker recording, so the daemon's integration tests need nothing outside the
  * repository.  Usage: make_model OUT_DIR  ->  OUT_DIR/example.msm, OUT_DIR/trot.csv,
  * OUT_DIR/corrupt.msm (the model file cut in half, for the SIGHUP test), OUT_DIR/skin.msm (a skin
- * of the same example: a clock-driven kind) and OUT_DIR/two-kinds.msm (the steering model with
- * that skin beside it, the daemon's idle animation). */
+ * of the same example: a clock-driven kind), OUT_DIR/two-kinds.msm (the steering model with
+ * that skin beside it, the daemon's idle animation) and OUT_DIR/two-kinds-walk.msm (the same, its
+ * skin walking the example's transition graph: Zheng 2013's variations as the idle source). */
 #include "model.h"
 
 #include <stdio.h>
@@ -80,6 +81,11 @@ int main(int argc, char **argv)
     snprintf(path, sizeof path, "%s/two-kinds.msm", argv[1]);
     if (mdl_model_save(m, path, err)) {
         fprintf(stderr, "make_model: %s\n", err);
+        return 1;
+    }
+    snprintf(path, sizeof path, "%s/two-kinds-walk.msm", argv[1]);
+    if (mdl_variations_attach(m, NULL, 7, err) || mdl_model_save(m, path, err)) {
+        fprintf(stderr, "make_model: variations: %s\n", err);
         return 1;
     }
     mdl_model_destroy(skin);

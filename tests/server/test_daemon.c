@@ -402,7 +402,9 @@ static int count_flag(const wsc *A, int from, int flag, int set)
 /* A model file with two kinds over one mesh (the steering model + the skin of the same example):
  * the hello names both; while the replay plays, frames are tracked; once it ends, the skin's
  * clock-driven animation takes over (idle flag, /healthz driver idle) with no new hello; a seek
- * brings tracking back. A model whose only kind is the skin streams on its own clock. */
+ * brings tracking back. The same with the skin walking its example's transition graph (Zheng
+ * 2013's variations): idle frames at 30 fps that move. A model whose only kind is the skin streams
+ * on its own clock. */
 static void scenario_kinds(void)
 {
     char model[1200], source[1200], *body = NULL;
@@ -454,6 +456,36 @@ static void scenario_kinds(void)
     ASSERT(harness_log_has(&H, "tracking again"));
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
 
+    /* the same with the skin walking its example's transition graph (Zheng 2013): idle frames at
+     * 30 fps that keep changing */
+    snprintf(model, sizeof model, "%s/two-kinds-walk.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?start=200", H.dir);
+    harness_start(&H, meshsteerd, args);
+    wsc *W = wsc_connect(ctx, H.port, NULL, 1);
+    run_until(ctx, W, 20, 0, 15000);
+    run_until(ctx, W, W->total_frames + 80, 0, 15000);
+    from = W->nframes - 50;
+    idle = count_flag(W, from, 8, 1);
+    span = (double)(W->frames[W->nframes - 1].t_capture - W->frames[from + 5].t_capture) * 1e-6;
+    rate = (W->nframes - from - 6) / span;
+    int moved = 0;
+    for (int f = from + 1; f < W->nframes; f++) {
+        const float *a = W->frames[f - 1].V, *b = W->frames[f].V;
+        float d = 0;
+        for (int i = 0; a && b && i < 3 * W->nv; i++)
+            d = fmaxf(d, fabsf(a[i] - b[i]));
+        moved += d > 1e-5f;
+    }
+    printf("kinds: walking skin: %d of the last 50 frames are idle, at %.1f Hz, %d of 49 moved\n",
+           idle, rate, moved);
+    ASSERT_INT_EQ(idle, 50);
+    ASSERT_INT_GE(moved, 45);
+    ASSERT_RATE(rate, 30, 4);
+    ASSERT_INT_EQ(harness_get(&H, "/healthz", &body), 200);
+    ASSERT(strstr(body, "\"driver\":\"idle\""));
+    free(body);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+
     /* the skin alone: a clock-driven primary kind, no markers, frames at its own 30 fps */
     snprintf(model, sizeof model, "%s/skin.msm", H.dir);
     snprintf(source, sizeof source, "replay:%s/trot.csv?loop=1", H.dir);
@@ -473,6 +505,7 @@ static void scenario_kinds(void)
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
     lws_context_destroy(ctx); /* A's connection lives in the context until here */
     wsc_free(A);
+    wsc_free(W);
     wsc_free(B);
 }
 

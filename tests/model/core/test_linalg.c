@@ -30,6 +30,19 @@ static void test_syev(void)
     ASSERT_NEAR(A[2] * A[3], 0.5, 1e-12);
 }
 
+static void test_gesvd(void)
+{
+    /* a 3 x 2 matrix of rank 1, u v^T with u = (1, 2, 2), v = (3, 4): one singular value 15 */
+    double A[6] = {3, 6, 6, 4, 8, 8}, s[2], U[6], VT[4];
+    char err[MDL_ERR_LEN] = "";
+    ASSERT_OK(mdl_la_gesvd(3, 2, A, 3, s, U, 3, VT, 2, err), err);
+    ASSERT_NEAR(s[0], 15, 1e-12);
+    ASSERT_NEAR(s[1], 0, 1e-12);
+    ASSERT_NEAR(fabs(U[1]), 2.0 / 3, 1e-12);
+    ASSERT_NEAR(U[0] * VT[0] * s[0], 3, 1e-12);   /* U s VT reproduces A(0,0) */
+    ASSERT_NEAR(U[2] * VT[2] * s[0], 8, 1e-12);   /* and A(2,1) */
+}
+
 static void test_cholesky(void)
 {
     /* [4 2; 2 3] x = [2; 1] -> x = [0.5; 0] */
@@ -77,6 +90,7 @@ int main(void)
 {
     test_gemm();
     test_syev();
+    test_gesvd();
     test_cholesky();
     test_potrs1();
     printf("linalg: ok\n");

@@ -1,0 +1,148 @@
+/* blend.c - splicing two segments of the example (Zheng 2013 Sec. 3.3): the reference bone matched
+ * rigidly (eq. 7), the other bones blended linearly in its local frame over a window (the simple
+ * scheme Fig. 6 compares against), and back to the world frame (eq. 10).
+ *
+ *   eq. (7)   the segment S_j->b is moved by the fixed rigid transform that puts b_r of frame j on
+ *             b_r of frame i: G <- G (R_r(i) R_r(j)^T, t_r(i) - R_r(i) R_r(j)^T t_r(j)), so that
+ *             R~_r(k) = G_R R_r(k), t~_r(k) = G_R t_r(k) + G_t for every later frame k; the
+ *             velocity of b_r stays smooth because D (eq. 5) matched it (the beta term).
+ *   blend     the local-frame bone coordinates (eq. 2) of the new segment are carried from the old
+ *             one's at the splice and let go linearly over L = blend output frames:
+ *               R~_b->r(j + k) = Exp(s_k Phi(R_b->r(i) R_b->r(j)^T)) R_b->r(j + k),
+ *               x~_b(j + k) = x_b(j + k) + s_k (x_b(i) - x_b(j)),   s_k = 1 - k / L,
+ *             where x_b = R_b->r c_b + t_b->r is where the bone's centre c_b (the weighted centroid
+ *             of its rest vertices) goes, and t~_b->r = x~_b - R~_b->r c_b: the rotation is blended
+ *             about the bone's own centre, not about the origin, whose lever arm would swing the
+ *             vertices between the two ends of the window;
+ *             which is the linear blend (1 - s) S_j->b + s S_a->i of the two segments wherever
+ *             their difference stays what it was at the splice, and needs no frames of S_a->i
+ *             after i (a splice at the last input frame has none). A splice inside an earlier
+ *             window starts from the blended coordinates, so windows chain without a jump.
+ *   eq. (10)  F~_b = R~_r R~_b->r,  t~_b = R~_r t~_b->r + t~_r: rotations stay rotations.
+ * The gradient-domain blend of Sec. 3.3 (key vertices, eq. 8-9) is not implemented. Per step: no
+ * allocation (the offsets are sized at init), doubles. */
+#include "variations/variations.h"
+#include "core/rigid.h"
+#include "core/util.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+int mdl__vblend_init(mdl__vblend *b, const struct mdl_variations *v)
+{
+    memset(b, 0, sizeof *b);
+    b->om = mdl__calloc(3 * (size_t)v->nb, sizeof *b->om);
+    b->dt = mdl__calloc(3 * (size_t)v->nb, sizeof *b->dt);
+    if (!b->om || !b->dt) {
+        mdl__vblend_fini(b);
+        return -ENOMEM;
+    }
+    mdl__vblend_reset(b, v);
+    return 0;
+}
+
+void mdl__vblend_fini(mdl__vblend *b)
+{
+    free(b->om);
+    free(b->dt);
+    b->om = b->dt = NULL;
+}
+
+void mdl__vblend_reset(mdl__vblend *b, const struct mdl_variations *v)
+{
+    static const double I[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+    memcpy(b->G, I, sizeof I);
+    memset(b->om, 0, 3 * (size_t)v->nb * sizeof *b->om);
+    memset(b->dt, 0, 3 * (size_t)v->nb * sizeof *b->dt);
+    b->since = v->o.blend;
+}
+
+static double weight(const mdl__vblend *b, const struct mdl_variations *v)
+{
+    return b->since < v->o.blend ? 1 - (double)b->since / v->o.blend : 0;
+}
+
+/* the blended local frame of bone k at input frame c */
+static void local(const mdl__vblend *b, const struct mdl_variations *v, int f, int k, double s,
+                  double R[9], double t[3])
+{
+    const double *LR = v->LR + 9 * ((size_t)f * v->nb + k), *Lt = v->Lt + 3 * ((size_t)f * v->nb + k);
+    if (s <= 0 || k == v->ref) {
+        memcpy(R, LR, 9 * sizeof *R);
+        memcpy(t, Lt, 3 * sizeof *t);
+        return;
+    }
+    double w[3], E[9];
+    const double *c = v->centre + 3 * (size_t)k;
+    for (int a = 0; a < 3; a++)
+        w[a] = s * b->om[3 * k + a];
+    mdl__so3_exp(w, E);
+    mdl__mat3_mul(E, LR, R);
+    for (int a = 0; a < 3; a++) {
+        /* x = LR c + Lt + s dx, t = x - R c */
+        double x = LR[3 * a] * c[0] + LR[3 * a + 1] * c[1] + LR[3 * a + 2] * c[2] + Lt[a] +
+                   s * b->dt[3 * k + a];
+        t[a] = x - (R[3 * a] * c[0] + R[3 * a + 1] * c[1] + R[3 * a + 2] * c[2]);
+    }
+}
+
+void mdl__vblend_pose(const mdl__vblend *b, const struct mdl_variations *v, int c, double *T)
+{
+    const double *Tr = v->T + 12 * ((size_t)c * v->nb + v->ref);
+    double Rr[9], tr[3];
+    mdl__mat3_mul(b->G, Tr, Rr);
+    for (int a = 0; a < 3; a++)
+        tr[a] = b->G[3 * a] * Tr[9] + b->G[3 * a + 1] * Tr[10] + b->G[3 * a + 2] * Tr[11] + b->G[9 + a];
+    double s = weight(b, v);
+    for (int k = 0; k < v->nb; k++) {
+        double R[9], t[3];
+        local(b, v, c, k, s, R, t);
+        double *M = T + 12 * (size_t)k;
+        mdl__mat3_mul(Rr, R, M);
+        for (int a = 0; a < 3; a++)
+            M[9 + a] = Rr[3 * a] * t[0] + Rr[3 * a + 1] * t[1] + Rr[3 * a + 2] * t[2] + tr[a];
+    }
+}
+
+void mdl__vblend_splice(mdl__vblend *b, const struct mdl_variations *v, int i, int j)
+{
+    double s = weight(b, v);
+    if (v->o.blend > 0)
+        for (int k = 0; k < v->nb; k++) {
+            if (k == v->ref)
+                continue;
+            double R[9], t[3], D[9];
+            local(b, v, i, k, s, R, t);
+            const double *LRj = v->LR + 9 * ((size_t)j * v->nb + k);
+            const double *Ltj = v->Lt + 3 * ((size_t)j * v->nb + k);
+            mdl__mat3_mul_t(R, LRj, D);
+            mdl__so3_log(D, b->om + 3 * k);
+            const double *c = v->centre + 3 * (size_t)k;
+            for (int a = 0; a < 3; a++)
+                b->dt[3 * k + a] = (R[3 * a] * c[0] + R[3 * a + 1] * c[1] + R[3 * a + 2] * c[2] + t[a]) -
+                                   (LRj[3 * a] * c[0] + LRj[3 * a + 1] * c[1] + LRj[3 * a + 2] * c[2] + Ltj[a]);
+        }
+    /* eq. (7): G <- G * (T_r(i) T_r(j)^-1) */
+    const double *Ti = v->T + 12 * ((size_t)i * v->nb + v->ref);
+    const double *Tj = v->T + 12 * ((size_t)j * v->nb + v->ref);
+    double A[9], At[3], G[12];
+    mdl__mat3_mul_t(Ti, Tj, A);
+    for (int a = 0; a < 3; a++)
+        At[a] = Ti[9 + a] - (A[3 * a] * Tj[9] + A[3 * a + 1] * Tj[10] + A[3 * a + 2] * Tj[11]);
+    mdl__mat3_mul(b->G, A, G);
+    for (int a = 0; a < 3; a++)
+        G[9 + a] = b->G[3 * a] * At[0] + b->G[3 * a + 1] * At[1] + b->G[3 * a + 2] * At[2] + b->G[9 + a];
+    /* keep G a rotation as splices accumulate */
+    double q[4];
+    mdl__mat_to_quat(G, q);
+    mdl__quat_to_mat(q, b->G);
+    memcpy(b->G + 9, G + 9, 3 * sizeof *G);
+    b->since = 0;
+}
+
+void mdl__vblend_advance(mdl__vblend *b)
+{
+    if (b->since < 1 << 30)
+        b->since++;
+}

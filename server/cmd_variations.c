@@ -1,0 +1,375 @@
+/* cmd_variations.c - `meshsteer variations`: many different animations of any length from the one
+ * example a skin was fitted to (Zheng 2013, model.h "variations"): the transition graph of the
+ * skin, N random walks of F frames, each written as a PC2 point cache of the skinned mesh, and
+ * with --json the graph's figures and, per variation, its largest frame-to-frame vertex jump
+ * beside the example's own (the skin's fitted frames, skinned) and the largest vertex
+ * acceleration near its transitions beside the 99th percentile of the example's. Serial: a walk of the horse's 22
+ * bones costs microseconds per frame; the skinning dominates. */
+#include "cli.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+static const char usage_text[] =
+    "usage: meshsteer variations --model SKIN.msm --count N --frames F [options] -o OUT_DIR\n"
+    "       meshsteer variations --add-to MODEL.msm [options]\n"
+    "\n"
+    "Synthesises N different animations of F frames each from the example a skin was fitted to\n"
+    "(`meshsteer skin`; Zheng 2013): transitions between frames whose bone poses, seen from the\n"
+    "most influential bone, are close (Sec. 3.2), spliced with that bone matched rigidly and the\n"
+    "others blended linearly, and random walks on the graph they make (Sec. 3.4). Writes\n"
+    "OUT_DIR/variation_000.pc2, ... (the skinned mesh; topology: the model's rest pose).\n"
+    "\n"
+    "  --model SKIN.msm      a model file holding a skin\n"
+    "  --count N             number of variations (required, >= 1)\n"
+    "  --frames F            frames per variation (required, >= 1)\n"
+    "  --seed S              variation k uses seed S + k (default 1)\n"
+    "  --threshold F         T_c itself (default: 40 x max D(i, i-1), the paper's)\n"
+    "  --tc-factor F         T_c = F x max D(i, i-1) (default 40)\n"
+    "  --blend N             frames over which a transition is blended (default 8, 0: none)\n"
+    "  --jump-prob P         chance per frame of taking an open transition (default 0.2)\n"
+    "  --temperature F       prefer cheap transitions: chance ~ exp(-D / (F x max D(i, i-1)))\n"
+    "                        (default 0.1; 0: uniform)\n"
+    "  --min-segment N       frames between transitions at least (default 8)\n"
+    "  --start FRAME         every walk starts at this fitted frame (default: by its seed)\n"
+    "  -o OUT_DIR            directory for the PC2 files (created)\n"
+    "  --add-to MODEL.msm    make the skin in MODEL.msm play an endless random walk (the given\n"
+    "                        options, --seed S) instead of looping its frames, and rewrite the\n"
+    "                        file: the daemon's idle source then walks. --model defaults to it;\n"
+    "                        --count, --frames and -o are then optional\n"
+    "  --json                print bones, frames, ref_bone, rank, alpha, beta, max_adjacent,\n"
+    "                        tc, transitions, the transition list (from, to, cost),\n"
+    "                        example_max_jump, example_p99_accel and example_max_accel (the\n"
+    "                        99th percentile and the largest of the example's vertex\n"
+    "                        accelerations), synth_s and per variation its\n"
+    "                        file, transitions taken, max_jump and max_jump_ratio (to the\n"
+    "                        example's), transition_max_accel (the largest vertex acceleration\n"
+    "                        within 3 frames of a transition) and transition_accel_ratio (to the\n"
+    "                        example's 99th percentile)\n";
+
+static double max_jump(const float *V, int nv, int frames)
+{
+    double mx = 0;
+    for (int f = 1; f < frames; f++)
+        for (int i = 0; i < nv; i++) {
+            const float *a = V + 3 * ((size_t)(f - 1) * nv + i), *b = V + 3 * ((size_t)f * nv + i);
+            double d = 0;
+            for (int c = 0; c < 3; c++)
+                d += ((double)a[c] - b[c]) * ((double)a[c] - b[c]);
+            mx = d > mx ? d : mx;
+        }
+    return sqrt(mx);
+}
+
+static int cmp_float(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+/* the largest vertex acceleration |V(f+1) - 2 V(f) + V(f-1)| at output frame f (1..frames-2) */
+static double accel_at(const float *V, int nv, int f)
+{
+    double mx = 0;
+    for (int i = 0; i < nv; i++) {
+        double d = 0;
+        for (int c = 0; c < 3; c++) {
+            size_t k = 3 * (size_t)i + c;
+            double a = (double)V[3 * (size_t)(f + 1) * nv + k] - 2.0 * V[3 * (size_t)f * nv + k] +
+                       V[3 * (size_t)(f - 1) * nv + k];
+            d += a * a;
+        }
+        mx = d > mx ? d : mx;
+    }
+    return sqrt(mx);
+}
+
+/* The example as the skin reproduces it (its fitted frames, skinned): the largest vertex jump
+ * between consecutive frames, and the 99th percentile of the vertex accelerations over all
+ * vertices and interior frames (the issue's smoothness reference) and their maximum. 0 when not
+ * computable. */
+static void example_motion(const mdl_model *m, double *jump, double *p99, double *amax)
+{
+    *jump = *p99 = *amax = 0;
+    int nb, K, N;
+    const int *bone;
+    const double *w, *T;
+    if (mdl_skin_get(m, &nb, &K, &N, &bone, &w, &T) || N < 3)
+        return;
+    mdl_model_info info;
+    mdl_model_get_info(m, &info);
+    float *V = calloc((size_t)N * info.nv * 3, sizeof *V);
+    float *acc = calloc((size_t)(N - 2) * info.nv, sizeof *acc);
+    if (!V || !acc) {
+        free(V);
+        free(acc);
+        return;
+    }
+    for (int f = 0; f < N; f++)
+        for (int i = 0; i < info.nv; i++) {
+            const float *p = info.rest + 3 * (size_t)i;
+            for (int c = 0; c < 3; c++) {
+                double a = 0;
+                for (int s = 0; s < K; s++) {
+                    const double *M = T + 12 * ((size_t)f * nb + bone[(size_t)K * i + s]);
+                    a += w[(size_t)K * i + s] *
+                         (M[3 * c] * p[0] + M[3 * c + 1] * p[1] + M[3 * c + 2] * p[2] + M[9 + c]);
+                }
+                V[3 * ((size_t)f * info.nv + i) + c] = (float)a;
+            }
+        }
+    *jump = max_jump(V, info.nv, N);
+    size_t n = 0;
+    for (int f = 1; f + 1 < N; f++)
+        for (int i = 0; i < info.nv; i++) {
+            double d = 0;
+            for (int c = 0; c < 3; c++) {
+                size_t k = 3 * (size_t)i + c;
+                double a = (double)V[3 * (size_t)(f + 1) * info.nv + k] -
+                           2.0 * V[3 * (size_t)f * info.nv + k] + V[3 * (size_t)(f - 1) * info.nv + k];
+                d += a * a;
+            }
+            acc[n++] = (float)sqrt(d);
+        }
+    qsort(acc, n, sizeof *acc, cmp_float);
+    *p99 = acc[(size_t)(0.99 * (double)(n - 1))];
+    *amax = acc[n - 1];
+    free(V);
+    free(acc);
+}
+
+int cmd_variations(int argc, char **argv)
+{
+    const char *cmd = "variations", *modelp = NULL, *outdir = NULL, *addto = NULL;
+    int count = 0, frames = 0, seed = 1, json = 0;
+    mdl_variations_opts vo;
+    mdl_variations_opts_default(&vo);
+    enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_JUMP, O_TEMP,
+           O_MINSEG, O_START, O_JSON, O_ADD };
+    static const struct option lo[] = {
+        {"model", 1, 0, O_MODEL},         {"count", 1, 0, O_COUNT},   {"frames", 1, 0, O_FRAMES},
+        {"seed", 1, 0, O_SEED},           {"threshold", 1, 0, O_THRESH},
+        {"tc-factor", 1, 0, O_TCF},       {"blend", 1, 0, O_BLEND},   {"jump-prob", 1, 0, O_JUMP},
+        {"temperature", 1, 0, O_TEMP},    {"min-segment", 1, 0, O_MINSEG},
+        {"start", 1, 0, O_START},         {"json", 0, 0, O_JSON},     {"help", 0, 0, 'h'},
+        {"add-to", 1, 0, O_ADD},
+        {0, 0, 0, 0}};
+    int c;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "ho:", lo, NULL)) != -1) {
+        switch (c) {
+        case O_MODEL: modelp = optarg; break;
+        case O_COUNT: if (cli_parse_int(cmd, "--count", optarg, &count)) return CLI_EXIT_USAGE; break;
+        case O_FRAMES: if (cli_parse_int(cmd, "--frames", optarg, &frames)) return CLI_EXIT_USAGE; break;
+        case O_SEED: if (cli_parse_int(cmd, "--seed", optarg, &seed)) return CLI_EXIT_USAGE; break;
+        case O_THRESH: if (cli_parse_double(cmd, "--threshold", optarg, &vo.threshold)) return CLI_EXIT_USAGE; break;
+        case O_TCF: if (cli_parse_double(cmd, "--tc-factor", optarg, &vo.tc_factor)) return CLI_EXIT_USAGE; break;
+        case O_BLEND: if (cli_parse_int(cmd, "--blend", optarg, &vo.blend)) return CLI_EXIT_USAGE; break;
+        case O_JUMP: if (cli_parse_double(cmd, "--jump-prob", optarg, &vo.jump_prob)) return CLI_EXIT_USAGE; break;
+        case O_TEMP: if (cli_parse_double(cmd, "--temperature", optarg, &vo.temperature)) return CLI_EXIT_USAGE; break;
+        case O_MINSEG: if (cli_parse_int(cmd, "--min-segment", optarg, &vo.min_segment)) return CLI_EXIT_USAGE; break;
+        case O_START: if (cli_parse_int(cmd, "--start", optarg, &vo.start)) return CLI_EXIT_USAGE; break;
+        case O_JSON: json = 1; break;
+        case O_ADD: addto = optarg; break;
+        case 'o': outdir = optarg; break;
+        case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
+        default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
+        }
+    }
+    if (optind < argc)
+        return cli_usage_error(cmd, "unexpected argument '%s'", argv[optind]);
+    if (!modelp)
+        modelp = addto;
+    int batch = !addto || outdir || count || frames;
+    if (!modelp || (batch && (!outdir || count < 1 || frames < 1)))
+        return cli_usage_error(cmd, "--model, --count (>= 1), --frames (>= 1) and -o are required "
+                               "(or --add-to alone; see --help)");
+    if (count > 100000 || frames > 10000000 || (double)count * frames > 1e9)
+        return cli_usage_error(cmd, "--count x --frames is too large");
+    if (vo.threshold < 0 || !(vo.tc_factor > 0) || vo.blend < 0 || !(vo.jump_prob >= 0) ||
+        vo.jump_prob > 1 || !(vo.temperature >= 0) || vo.min_segment < 0 || vo.start < -1)
+        return cli_usage_error(cmd, "--threshold, --tc-factor, --blend, --jump-prob, "
+                               "--temperature, --min-segment or --start out of range");
+
+    char err[MDL_ERR_LEN] = "";
+    int status = CLI_EXIT_USAGE;
+    mdl_model *model = NULL;
+    mdl_variations *v = NULL;
+    double *T = NULL;
+    float *V = NULL;
+    int *src = NULL;
+    cJSON *jo = NULL, *jvars = NULL;
+    if (mdl_model_load(modelp, &model, err)) {
+        cli_fail(cmd, status, "%s", err);
+        goto out;
+    }
+    mdl_model_info info;
+    mdl_model_get_info(model, &info);
+    int nskinframes = 0, rc;
+    {
+        int nb, K;
+        const int *bone;
+        const double *w, *Ts;
+        if (mdl_skin_get(model, &nb, &K, &nskinframes, &bone, &w, &Ts)) {
+            cli_fail(cmd, status, "%s holds no skin (fit one with `meshsteer skin`)", modelp);
+            goto out;
+        }
+    }
+    if (vo.start >= nskinframes) {
+        cli_fail(cmd, status, "--start %d: the skin has %d frames", vo.start, nskinframes);
+        goto out;
+    }
+    mdl_set_blas_threads(1);
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    rc = mdl_variations_build(model, &vo, &v, err);
+    if (rc) {
+        status = rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
+        cli_fail(cmd, status, "%s", err);
+        goto out;
+    }
+    mdl_variations_stats st;
+    mdl_variations_get_stats(v, &st);
+    if (addto) {
+        mdl_model *dst = NULL;
+        rc = strcmp(addto, modelp) ? mdl_model_load(addto, &dst, err) : 0;
+        if (!rc)
+            rc = mdl_variations_attach(dst ? dst : model, &vo, (uint64_t)(unsigned)seed, err);
+        if (!rc && mdl_model_save(dst ? dst : model, addto, err))
+            rc = CLI_EXIT_FAIL;
+        mdl_model_destroy(dst);
+        if (rc) {
+            status = rc == CLI_EXIT_FAIL ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
+            cli_fail(cmd, status, "--add-to %s: %s", addto, err);
+            goto out;
+        }
+        if (!batch) {
+            if (json)
+                printf("{\n\t\"transitions\":\t%d,\n\t\"tc\":\t%.17g,\n\t\"alive_frames\":\t%d\n}\n",
+                       st.transitions, st.tc, st.alive_frames);
+            status = CLI_EXIT_OK;
+            goto out;
+        }
+    }
+    if (mkdir(outdir, 0777) != 0 && errno != EEXIST) {
+        status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", outdir, strerror(errno));
+        goto out;
+    }
+    T = malloc((size_t)frames * st.bones * 12 * sizeof *T);
+    V = malloc((size_t)frames * info.nv * 3 * sizeof *V);
+    src = malloc((size_t)frames * sizeof *src);
+    if (json) {
+        jo = cJSON_CreateObject();
+        jvars = cJSON_CreateArray();
+    }
+    if (!T || !V || !src || (json && (!jo || !jvars))) {
+        status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory for %d frames", frames);
+        goto out;
+    }
+    double ej, ea, eamax, worst = 0, worst_acc = 0;
+    example_motion(model, &ej, &ea, &eamax);
+    for (int k = 0; k < count; k++) {
+        rc = mdl_variations_walk(v, (uint64_t)(unsigned)seed + (uint64_t)k, frames, T, V, src, err);
+        if (rc) {
+            status = rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
+            cli_fail(cmd, status, "%s", err);
+            goto out;
+        }
+        char path[4096];
+        snprintf(path, sizeof path, "%s/variation_%03d.pc2", outdir, k);
+        if (mdl_pc2_write(path, V, info.nv, frames, 0.0f, 1.0f, err)) {
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
+            goto out;
+        }
+        double j = max_jump(V, info.nv, frames);
+        worst = j > worst ? j : worst;
+        /* smoothness at the transitions: the largest vertex acceleration within 3 frames */
+        double ta = 0;
+        for (int f = 1; f < frames; f++) {
+            if (src[f] == src[f - 1] + 1)
+                continue;
+            for (int g = f - 3; g <= f + 3; g++)
+                if (g >= 1 && g + 1 < frames) {
+                    double a = accel_at(V, info.nv, g);
+                    ta = a > ta ? a : ta;
+                }
+        }
+        worst_acc = ta > worst_acc ? ta : worst_acc;
+        if (jvars) {
+            int taken = 0;
+            for (int f = 1; f < frames; f++)
+                taken += src[f] != src[f - 1] + 1;
+            cJSON *e = cJSON_CreateObject();
+            cJSON_AddStringToObject(e, "file", path);
+            cJSON_AddNumberToObject(e, "seed", (double)((unsigned)seed + (unsigned)k));
+            cJSON_AddNumberToObject(e, "start", src[0]);
+            cJSON_AddNumberToObject(e, "transitions_taken", taken);
+            cJSON_AddNumberToObject(e, "max_jump", j);
+            cJSON_AddNumberToObject(e, "max_jump_ratio", ej > 0 ? j / ej : 0);
+            cJSON_AddNumberToObject(e, "transition_max_accel", ta);
+            cJSON_AddNumberToObject(e, "transition_accel_ratio", ea > 0 ? ta / ea : 0);
+            cJSON_AddItemToArray(jvars, e);
+        }
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    if (jo) {
+        cJSON_AddNumberToObject(jo, "bones", st.bones);
+        cJSON_AddNumberToObject(jo, "frames", st.frames);
+        cJSON_AddNumberToObject(jo, "ref_bone", st.ref_bone);
+        cJSON_AddNumberToObject(jo, "rank", st.rank);
+        cJSON_AddNumberToObject(jo, "alpha", st.alpha);
+        cJSON_AddNumberToObject(jo, "beta", st.beta);
+        cJSON_AddNumberToObject(jo, "max_adjacent", st.max_adjacent);
+        cJSON_AddNumberToObject(jo, "tc", st.tc);
+        cJSON_AddNumberToObject(jo, "transitions", st.transitions);
+        cJSON_AddNumberToObject(jo, "alive_frames", st.alive_frames);
+        cJSON *tl = cJSON_AddArrayToObject(jo, "transition_list");
+        for (int k = 0; tl && k < st.transitions; k++) {
+            int a, b;
+            double cost;
+            mdl_variations_transition(v, k, &a, &b, &cost);
+            cJSON *e = cJSON_CreateObject();
+            cJSON_AddNumberToObject(e, "from", a);
+            cJSON_AddNumberToObject(e, "to", b);
+            cJSON_AddNumberToObject(e, "cost", cost);
+            cJSON_AddItemToArray(tl, e);
+        }
+        cJSON_AddNumberToObject(jo, "count", count);
+        cJSON_AddNumberToObject(jo, "frames_per_variation", frames);
+        cJSON_AddNumberToObject(jo, "frames_total", (double)count * frames);
+        cJSON_AddNumberToObject(jo, "example_max_jump", ej);
+        cJSON_AddNumberToObject(jo, "max_jump", worst);
+        cJSON_AddNumberToObject(jo, "max_jump_ratio", ej > 0 ? worst / ej : 0);
+        cJSON_AddNumberToObject(jo, "example_p99_accel", ea);
+        cJSON_AddNumberToObject(jo, "example_max_accel", eamax);
+        cJSON_AddNumberToObject(jo, "transition_max_accel", worst_acc);
+        cJSON_AddNumberToObject(jo, "transition_accel_ratio", ea > 0 ? worst_acc / ea : 0);
+        cJSON_AddNumberToObject(jo, "synth_s",
+                                (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec));
+        cJSON_AddItemToObject(jo, "variations", jvars);
+        jvars = NULL;
+        int pr = cli_print_json(jo);
+        jo = NULL;
+        if (pr) {
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
+            goto out;
+        }
+    }
+    status = CLI_EXIT_OK;
+out:
+    cJSON_Delete(jvars);
+    cJSON_Delete(jo);
+    free(T);
+    free(V);
+    free(src);
+    mdl_variations_destroy(v);
+    mdl_model_destroy(model);
+    return status;
+}

@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# test_variations.sh - `meshsteer variations` end to end (Zheng 2013, model/variations/): usage,
+# a model without a skin refused, on the built-in example's skin N PC2 files of F frames that are
+# the same for the same seed and differ across seeds, with no frame-to-frame vertex jump above 3x
+# the example's own, and the blend lowers the acceleration at transitions; --add-to makes a
+# model's skin walk; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames
+# with the same bound. Usage: test_variations.sh MESHSTEER SRC DATA
+set -euo pipefail
+ms=$1 src=$2 data=$3
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+expect_status() { # expect_status N command...
+    local want=$1; shift
+    set +e
+    "$@" >"$dir/out" 2>"$dir/err"
+    local got=$?
+    set -e
+    [ "$got" -eq "$want" ] || { cat "$dir/err" >&2; fail "$* exited $got, expected $want"; }
+}
+json_num() { sed -n "s/.*\"$2\":[[:space:]]*\\([-0-9.e+]*\\).*/\\1/p" "$1" | head -1; }
+le() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a <= b) }'; }
+# PC2: 32-byte header, then frames x points x 3 float32
+pc2_size() { echo $((32 + $1 * $2 * 12)); }
+
+expect_status 0 "$ms" variations --help
+grep -q -- "--count" "$dir/out" || fail "variations --help does not list --count"
+expect_status 2 "$ms" variations --model x.msm --count 2 -o "$dir/v"
+grep -q -- "--frames" "$dir/err" || fail "no message for a missing --frames"
+expect_status 2 "$ms" variations --model x.msm --count 2 --frames 10 --jump-prob 2 -o "$dir/v"
+expect_status 2 "$ms" variations --model /nonexistent.msm --count 2 --frames 10 -o "$dir/v"
+grep -q "/nonexistent" "$dir/err" || fail "the error does not name the missing file"
+
+expect_status 0 "$ms" example -o "$dir/ex" --frames 90
+expect_status 0 "$ms" train --mesh "$dir/ex/mesh" --rig "$dir/ex/rig.json" --frames 0:30:2 -o "$dir/steer.msm"
+expect_status 2 "$ms" variations --model "$dir/steer.msm" --count 1 --frames 3 -o "$dir/v"
+grep -q "holds no skin" "$dir/err" || fail "a model without a skin is not refused"
+
+expect_status 0 "$ms" skin --mesh "$dir/ex/mesh" --bones 8 --threads 1 -o "$dir/skin.msm"
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --start 90 -o "$dir/v"
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 -o "$dir/a" --json
+cp "$dir/out" "$dir/a.json"
+n=$(json_num "$dir/a.json" transitions)
+[ "$n" -gt 0 ] || fail "no transitions on the example's walk"
+tc=$(json_num "$dir/a.json" tc) madj=$(json_num "$dir/a.json" max_adjacent)
+awk -v t="$tc" -v m="$madj" 'BEGIN { exit !(t > 39.99 * m && t < 40.01 * m) }' || fail "T_c $tc is not 40 x $madj"
+ratio=$(json_num "$dir/a.json" max_jump_ratio)
+echo "example: $n transitions, T_c $tc, worst jump $ratio x the example's"
+le "$ratio" 3 || fail "a jump of $ratio x the example's"
+nv=$(grep -c '^v ' "$dir/ex/mesh/$(ls "$dir/ex/mesh" | head -1)")
+for k in 000 001 002; do
+    f="$dir/a/variation_$k.pc2"
+    [ "$(stat -c %s "$f")" = "$(pc2_size 100 "$nv")" ] || fail "$f is not 100 frames of $nv vertices"
+done
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 2 --frames 100 --seed 5 -o "$dir/b"
+# the linear blend smooths the transitions: with the same walks (same seeds), the largest vertex
+# acceleration near a transition is lower than with no blend
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --blend 0 -o "$dir/c" --json
+acc8=$(json_num "$dir/a.json" transition_max_accel) acc0=$(json_num "$dir/out" transition_max_accel)
+echo "example: largest acceleration near a transition $acc8 blended, $acc0 not" \
+     "(the example's 99th percentile $(json_num "$dir/a.json" example_p99_accel), largest $(json_num "$dir/a.json" example_max_accel))"
+awk -v a="$acc8" -v b="$acc0" 'BEGIN { exit !(a < b) }' || fail "the blend does not smooth: $acc8 vs $acc0"
+cmp -s "$dir/a/variation_000.pc2" "$dir/b/variation_000.pc2" || fail "seed 5 gave two animations"
+cmp -s "$dir/a/variation_001.pc2" "$dir/b/variation_001.pc2" || fail "seed 6 gave two animations"
+! cmp -s "$dir/a/variation_000.pc2" "$dir/a/variation_001.pc2" || fail "seeds 5 and 6 gave one animation"
+! cmp -s "$dir/a/variation_001.pc2" "$dir/a/variation_002.pc2" || fail "seeds 6 and 7 gave one animation"
+
+# --add-to: the skin beside a steering model walks (the daemon's idle source); a steering model
+# alone is refused
+expect_status 2 "$ms" variations --add-to "$dir/steer.msm"
+grep -q "holds no skin" "$dir/err" || fail "--add-to a model without a skin is not refused"
+expect_status 0 "$ms" skin --mesh "$dir/ex/mesh" --bones 8 --threads 1 --add-to "$dir/steer.msm" -o "$dir/both.msm"
+expect_status 0 "$ms" inspect "$dir/both.msm"
+grep -q "the fitted frames, looping" "$dir/out" || { cat "$dir/out"; fail "a new skin does not loop"; }
+expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --json
+[ "$(json_num "$dir/out" transitions)" -gt 0 ] || fail "--add-to --json: no transitions"
+expect_status 0 "$ms" inspect "$dir/both.msm"
+grep -q "steer (primary), skin" "$dir/out" || { cat "$dir/out"; fail "inspect does not list both kinds"; }
+grep -q "endless random walk.*seed 9" "$dir/out" || { cat "$dir/out"; fail "the skin does not walk"; }
+
+horse=$data/meshes/horse-gallop
+if [ ! -d "$horse" ]; then echo "skip: $horse not found (real-data part)"; exit 0; fi
+expect_status 0 "$ms" skin --mesh "$horse" --bones 22 --threads 1 -o "$dir/horse.msm"
+expect_status 0 "$ms" variations --model "$dir/horse.msm" --count 4 --frames 336 -o "$dir/h" --json
+cp "$dir/out" "$dir/h.json"
+ratio=$(json_num "$dir/h.json" max_jump_ratio)
+echo "horse: $(json_num "$dir/h.json" transitions) transitions, T_c $(json_num "$dir/h.json" tc)," \
+     "4 x 336 frames in $(json_num "$dir/h.json" synth_s) s, worst jump $ratio x the example's"
+le "$ratio" 3 || fail "horse: a jump of $ratio x the example's"
+echo "variations_cli: ok"

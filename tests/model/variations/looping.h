@@ -1,0 +1,146 @@
+/* looping.h - a synthetic looping example for the variations tests: a tube along x (0..3) bent by
+ * a 3-bone chain whose joint angles repeat every `period` frames, while the whole tube drifts
+ * (translation along x and a turn about y, both growing with time), so only a rigid-invariant
+ * metric finds the loop. Frames t and t + period differ by a rigid motion alone. */
+#ifndef MESHSTEER_TEST_LOOPING_H
+#define MESHSTEER_TEST_LOOPING_H
+
+#include "model.h"
+#include "core/rigid.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static inline void lp_rot_about(double ang, double px, double R[9], double t[3])
+{
+    /* rotation about z through (px, 0, 0) */
+    double c = cos(ang), s = sin(ang);
+    double M[9] = {c, -s, 0, s, c, 0, 0, 0, 1};
+    memcpy(R, M, sizeof M);
+    t[0] = px - c * px;
+    t[1] = -s * px;
+    t[2] = 0;
+}
+
+/* A = A * B (rigid transforms as R row-major + t) */
+static inline void lp_compose(double RA[9], double tA[3], const double RB[9], const double tB[3])
+{
+    double R[9], t[3];
+    for (int r = 0; r < 3; r++) {
+        for (int c = 0; c < 3; c++)
+            R[3 * r + c] = RA[3 * r] * RB[c] + RA[3 * r + 1] * RB[3 + c] + RA[3 * r + 2] * RB[6 + c];
+        t[r] = RA[3 * r] * tB[0] + RA[3 * r + 1] * tB[1] + RA[3 * r + 2] * tB[2] + tA[r];
+    }
+    memcpy(RA, R, sizeof R);
+    memcpy(tA, t, sizeof t);
+}
+
+static inline mdl_meshseq *lp_sequence(int frames, int period)
+{
+    const int rings = 31, around = 10;
+    mdl_meshseq *s = calloc(1, sizeof *s);
+    s->nv = rings * around;
+    s->nf = 2 * (rings - 1) * around;
+    s->frames = frames;
+    s->fps = 30;
+    s->V = calloc((size_t)frames * s->nv * 3, sizeof *s->V);
+    s->F = calloc(3 * (size_t)s->nf, sizeof *s->F);
+    int f = 0;
+    for (int r = 0; r + 1 < rings; r++)
+        for (int a = 0; a < around; a++) {
+            uint32_t v0 = r * around + a, v1 = r * around + (a + 1) % around, v2 = v0 + around,
+                     v3 = v1 + around;
+            uint32_t t[6] = {v0, v1, v2, v1, v3, v2};
+            memcpy(s->F + 3 * (size_t)f, t, sizeof t);
+            f += 2;
+        }
+    for (int t = 0; t < frames; t++) {
+        double ph = 2 * M_PI * t / period;
+        double R[3][9], tr[3][3];
+        /* the drift: turn about y by 0.02 t, move along x by 0.05 t */
+        double a = 0.02 * t, c = cos(a), sn = sin(a);
+        double R0[9] = {c, 0, sn, 0, 1, 0, -sn, 0, c}, t0[3] = {0.05 * t, 0, 0};
+        memcpy(R[0], R0, sizeof R0);
+        memcpy(tr[0], t0, sizeof t0);
+        double Rj[9], tj[3];
+        memcpy(R[1], R[0], sizeof R0);
+        memcpy(tr[1], tr[0], sizeof t0);
+        lp_rot_about(0.6 * sin(ph), 1, Rj, tj);
+        lp_compose(R[1], tr[1], Rj, tj);
+        memcpy(R[2], R[1], sizeof R0);
+        memcpy(tr[2], tr[1], sizeof t0);
+        lp_rot_about(0.5 * sin(ph + 1), 2, Rj, tj);
+        lp_compose(R[2], tr[2], Rj, tj);
+        for (int r = 0; r < rings; r++)
+            for (int k = 0; k < around; k++) {
+                double th = 2 * M_PI * k / around, x = 3.0 * r / (rings - 1);
+                double p[3] = {x, 0.15 * cos(th), 0.15 * sin(th)}, w[3] = {0, 0, 0};
+                /* bone floor(x), blended over 0.4 at the joints */
+                int b = x < 1 ? 0 : x < 2 ? 1 : 2;
+                w[b] = 1;
+                for (int j = 1; j < 3; j++)
+                    if (fabs(x - j) < 0.2) {
+                        double al = (x - j + 0.2) / 0.4;
+                        w[0] = w[1] = w[2] = 0;
+                        w[j - 1] = 1 - al;
+                        w[j] = al;
+                    }
+                float *o = s->V + 3 * ((size_t)t * s->nv + (size_t)r * around + k);
+                for (int cc = 0; cc < 3; cc++) {
+                    double acc = 0;
+                    for (int j = 0; j < 3; j++)
+                        acc += w[j] * (R[j][3 * cc] * p[0] + R[j][3 * cc + 1] * p[1] +
+                                       R[j][3 * cc + 2] * p[2] + tr[j][cc]);
+                    o[cc] = (float)acc;
+                }
+            }
+    }
+    return s;
+}
+
+/* the largest vertex displacement between consecutive frames of V (frames x nv x 3) */
+static inline double lp_max_jump(const float *V, int nv, int frames)
+{
+    double mx = 0;
+    for (int f = 1; f < frames; f++)
+        for (int i = 0; i < nv; i++) {
+            const float *a = V + 3 * ((size_t)(f - 1) * nv + i), *b = V + 3 * ((size_t)f * nv + i);
+            double d = 0;
+            for (int c = 0; c < 3; c++)
+                d += ((double)a[c] - b[c]) * ((double)a[c] - b[c]);
+            if (d > mx)
+                mx = d;
+        }
+    return sqrt(mx);
+}
+
+/* the skin's own fitted frames, skinned (nframes x nv x 3, malloc'd) */
+static inline float *lp_skin_frames(const mdl_model *m, int *nframes)
+{
+    int nb, K, N;
+    const int *bone;
+    const double *w, *T;
+    if (mdl_skin_get(m, &nb, &K, &N, &bone, &w, &T))
+        return NULL;
+    mdl_model_info info;
+    mdl_model_get_info(m, &info);
+    float *V = calloc((size_t)N * info.nv * 3, sizeof *V);
+    for (int f = 0; f < N; f++)
+        for (int i = 0; i < info.nv; i++) {
+            const float *p = info.rest + 3 * (size_t)i;
+            for (int c = 0; c < 3; c++) {
+                double acc = 0;
+                for (int s = 0; s < K; s++) {
+                    const double *M = T + 12 * ((size_t)f * nb + bone[(size_t)K * i + s]);
+                    acc += w[(size_t)K * i + s] *
+                           (M[3 * c] * p[0] + M[3 * c + 1] * p[1] + M[3 * c + 2] * p[2] + M[9 + c]);
+                }
+                V[3 * ((size_t)f * info.nv + i) + c] = (float)acc;
+            }
+        }
+    *nframes = N;
+    return V;
+}
+
+#endif
