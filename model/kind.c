@@ -198,7 +198,9 @@ void mdl_model_get_info(const mdl_model *m, mdl_model_info *info)
     info->rest = m->rest;
     info->F = m->F;
     info->topology = m->topology;
-    if (m->rig && (info->inputs & MDL_INPUT_MARKERS)) {
+    /* the rig's markers whatever the primary kind reads: another kind of the same model may be
+     * driven by them, and its caller must know how many to pass */
+    if (m->rig) {
         info->nmarkers = m->rig->nmarkers;
         info->markers = m->rig->markers;
     }

@@ -192,7 +192,8 @@ typedef struct mdl_model_info {
     const float *rest;     /* nv x 3, the reference frame */
     const uint32_t *F;     /* nf x 3 */
     uint64_t topology;     /* mdl_topology_fingerprint of F */
-    int nmarkers;          /* markers the model is driven by (0: none, e.g. a clock-driven kind) */
+    int nmarkers;          /* the rig's markers, what marker-driven kinds read (0: no rig); a
+                              primary kind whose inputs lack MDL_INPUT_MARKERS ignores them */
     const mdl_rig_marker *markers;
     int nclusters;         /* parts for colouring (steer: the disjoint clusters); 0 if none */
     const int *part;       /* nv: the part of each vertex, or NULL */

@@ -30,11 +30,11 @@ static void agree(const uint8_t *data, size_t size)
     const char *addr = (const char *)data;
     size_t alen = (strlen(addr) + 4) & ~(size_t)3;
     const char *types = (const char *)data + alen + 1;
-    if (strchr(types, '[') || strchr(types, ']')) {
+    if (strchr(types, '[') || strchr(types, ']') || strchr(types, 'r')) {
         if (lm)
             lo_message_free(lm);
         free(copy);
-        return; /* arrays: liblo 0.31 has none */
+        return; /* arrays and OSC 1.0's optional RGBA colour ('r'): liblo 0.31 has neither */
     }
     if (!lm) {
         fprintf(stderr, "fuzz_osc: walker took a message liblo refuses (%d): %s ,%s\n", result,
