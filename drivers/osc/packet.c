@@ -80,7 +80,15 @@ static int walk_message(const uint8_t *p, size_t n, size_t at, const drv_osc_vis
             if (need > n - off - 4)
                 return drv__err(err, -EINVAL, "osc %s: argument %d: blob of %zu bytes past the end",
                                 m.address, m.argc, need);
-            need = 4 + ((need + 3) & ~(size_t)3);
+            {
+                /* padded to 4 bytes with zeros, as strings are (OSC 1.0; liblo refuses others) */
+                size_t len = need;
+                need = 4 + ((len + 3) & ~(size_t)3);
+                for (size_t i = 4 + len; i < need && off + i < n; i++)
+                    if (p[off + i])
+                        return drv__err(err, -EINVAL, "osc %s: argument %d: blob padding is not "
+                                        "zero", m.address, m.argc);
+            }
             break;
         default:
             return drv__err(err, -EINVAL, "osc %s: argument %d: unknown type tag '%c' (0x%02x)",
