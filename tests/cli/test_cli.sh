@@ -4,20 +4,7 @@
 # messages for bad usage and bad input. Usage: test_cli.sh MESHSTEER SRC_DIR DATA_DIR
 set -euo pipefail
 ms=$1 src=$2 data=$3
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
-expect_status() { # expect_status N command...
-    local want=$1; shift
-    set +e
-    "$@" >"$dir/out" 2>"$dir/err"
-    local got=$?
-    set -e
-    [ "$got" -eq "$want" ] || { cat "$dir/err" >&2; fail "$* exited $got, expected $want"; }
-}
-json_num() { # json_num FILE KEY -> the number after "KEY":
-    sed -n "s/.*\"$2\":[[:space:]]*\\([-0-9.e+]*\\).*/\\1/p" "$1" | head -1
-}
+source "$(dirname "$0")/lib.sh"
 
 # usage: help is 0, no arguments / unknown command / missing options are 2 with a message
 expect_status 0 "$ms" --help

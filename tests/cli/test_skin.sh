@@ -4,19 +4,7 @@
 # read back by a second reader (assimp, Debian assimp-utils). Usage: test_skin.sh MESHSTEER SRC DATA
 set -euo pipefail
 ms=$1 src=$2 data=$3
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
-expect_status() { # expect_status N command...
-    local want=$1; shift
-    set +e
-    "$@" >"$dir/out" 2>"$dir/err"
-    local got=$?
-    set -e
-    [ "$got" -eq "$want" ] || { cat "$dir/err" >&2; fail "$* exited $got, expected $want"; }
-}
-json_num() { sed -n "s/.*\"$2\":[[:space:]]*\\([-0-9.e+]*\\).*/\\1/p" "$1" | head -1; }
-le() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a <= b) }'; }
+source "$(dirname "$0")/lib.sh"
 
 expect_status 0 "$ms" skin --help
 grep -q -- "--max-influences" "$dir/out" || fail "skin --help does not list --max-influences"

@@ -7,19 +7,7 @@
 # with the same bound. Usage: test_variations.sh MESHSTEER SRC DATA
 set -euo pipefail
 ms=$1 src=$2 data=$3
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
-expect_status() { # expect_status N command...
-    local want=$1; shift
-    set +e
-    "$@" >"$dir/out" 2>"$dir/err"
-    local got=$?
-    set -e
-    [ "$got" -eq "$want" ] || { cat "$dir/err" >&2; fail "$* exited $got, expected $want"; }
-}
-json_num() { sed -n "s/.*\"$2\":[[:space:]]*\\([-0-9.e+]*\\).*/\\1/p" "$1" | head -1; }
-le() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a <= b) }'; }
+source "$(dirname "$0")/lib.sh"
 # PC2: 32-byte header, then frames x points x 3 float32
 pc2_size() { echo $((32 + $1 * $2 * 12)); }
 
