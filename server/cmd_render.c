@@ -1,6 +1,9 @@
 /* cmd_render.c - `meshsteer render`: a contact sheet (PNG) of shaded frames of a mesh sequence,
- * optionally with marker positions drawn on top. One camera, fitted to the bounding box of all
- * selected frames, so that motion is visible between cells. Rendering: raster.c. */
+ * optionally with marker positions drawn on top, or coloured by the bones of a skin (issue 10:
+ * each bone a colour, each vertex the weight blend of its bones' colours, so the regions a bone
+ * moves show, and their soft borders). One camera, fitted to the bounding box of all selected
+ * frames, so that motion is visible between cells. Rendering: raster.c; colours: bone_colours.c. */
+#include "bone_colours.h"
 #include "cli.h"
 #include "raster.h"
 
@@ -17,7 +20,7 @@ static void render_usage(FILE *f)
 {
     fprintf(f,
             "usage: meshsteer render --mesh PATH [--rest REST.obj] [--frames SPEC] [--cols N]\n"
-            "                        [--size PX] [--markers FILE] -o SHEET.png\n\n"
+            "                        [--size PX] [--markers FILE] [--skin SKIN.msm] -o SHEET.png\n\n"
             "Draws a contact sheet of shaded frames of a mesh sequence.\n\n"
             "  --mesh PATH      a directory of numbered OBJ frames, or a .pc2 point cache\n"
             "  --rest REST.obj  topology for a .pc2 cache\n"
@@ -26,15 +29,44 @@ static void render_usage(FILE *f)
             "  --size PX        cell width in pixels, height is 3/4 of it (default 256)\n"
             "  --markers FILE   a marker file (.c3d .trc .bvh .csv .amc); frame i of the sheet shows\n"
             "                   marker frame i of the mesh sequence's numbering\n"
+            "  --skin SKIN.msm  colour by the bones of the skin in this model file (meshsteer skin;\n"
+            "                   same vertices as the mesh): each bone its own colour, each vertex\n"
+            "                   the weight blend of its bones' colours\n"
             "  -o SHEET.png     output image\n",
             DEFAULT_FRAMES);
 }
 
 int cmd_render(int argc, char **argv);
 
+/* Per-vertex colours (nv x 3) from the skin in model file `path`; 0 or an exit status. */
+static int skin_colours(const char *path, int nv, uint8_t **out)
+{
+    char err[MDL_ERR_LEN] = "";
+    mdl_model *m = NULL;
+    int rc = mdl_model_load(path, &m, err);
+    if (rc != 0)
+        return cli_fail(CMD, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);
+    int nb, K, nframes, status = CLI_EXIT_OK;
+    const int *bone;
+    const double *w, *T;
+    mdl_skin_stats st;
+    if (mdl_skin_get(m, &nb, &K, &nframes, &bone, &w, &T) != 0 || mdl_skin_get_stats(m, &st) != 0)
+        status = cli_usage_error(CMD, "--skin %s: the model holds no skin (see meshsteer skin)", path);
+    else if (st.vertices != nv)
+        status = cli_usage_error(CMD, "--skin %s: the skin has %d vertices, the mesh %d", path,
+                                 st.vertices, nv);
+    else if (!(*out = malloc((size_t)nv * 3)))
+        status = cli_fail(CMD, CLI_EXIT_FAIL, "out of memory");
+    if (status == CLI_EXIT_OK)
+        srv_skin_vertex_colours(nv, K, bone, w, *out);
+    mdl_model_destroy(m);
+    return status;
+}
+
 int cmd_render(int argc, char **argv)
 {
-    const char *mesh = NULL, *rest = NULL, *spec = NULL, *markers_path = NULL, *out = NULL;
+    const char *mesh = NULL, *rest = NULL, *spec = NULL, *markers_path = NULL, *out = NULL,
+               *skin_path = NULL;
     int cols = 4, size = 256;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -53,6 +85,8 @@ int cmd_render(int argc, char **argv)
             spec = v;
         else if (!strcmp(a, "--markers"))
             markers_path = v;
+        else if (!strcmp(a, "--skin"))
+            skin_path = v;
         else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
             out = v;
         else if (!strcmp(a, "--cols")) {
@@ -79,6 +113,7 @@ int cmd_render(int argc, char **argv)
     mdl_markers *mk = NULL;
     srv_raster *r = NULL;
     int *idx = NULL, n = 0;
+    uint8_t *vertex_rgb = NULL;
 
     if ((rc = mdl_meshseq_read(mesh, rest, &seq, err)) != 0) {
         status = cli_fail(CMD, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);
@@ -107,6 +142,9 @@ int cmd_render(int argc, char **argv)
         status = cli_usage_error(CMD, "%d frames selected; a sheet holds at most 4096", n);
         goto done;
     }
+    if (skin_path && (status = skin_colours(skin_path, seq->nv, &vertex_rgb)) != CLI_EXIT_OK)
+        goto done;
+    status = CLI_EXIT_FAIL;
     if (markers_path) {
         if ((rc = mdl_markers_read(markers_path, NULL, &mk, err)) != 0) {
             status = cli_fail(CMD, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);
@@ -133,7 +171,10 @@ int cmd_render(int argc, char **argv)
     int scale = size >= 192 ? 2 : 1;
     for (int i = 0; i < n; i++) {
         const float *V = seq->V + (size_t)idx[i] * seq->nv * 3;
-        if ((rc = srv_raster_draw_mesh(r, i, &cam, V, seq->nv, seq->F, seq->nf, body, err)) != 0) {
+        rc = vertex_rgb ? srv_raster_draw_mesh_coloured(r, i, &cam, V, seq->nv, seq->F, seq->nf,
+                                                        vertex_rgb, err)
+                        : srv_raster_draw_mesh(r, i, &cam, V, seq->nv, seq->F, seq->nf, body, err);
+        if (rc != 0) {
             status = cli_fail(CMD, CLI_EXIT_FAIL, "%s", err);
             goto done;
         }
@@ -151,6 +192,7 @@ int cmd_render(int argc, char **argv)
     }
     status = CLI_EXIT_OK;
 done:
+    free(vertex_rgb);
     free(idx);
     srv_raster_destroy(r);
     mdl_markers_destroy(mk);

@@ -162,8 +162,9 @@ static float edge(const float *a, const float *b, float px, float py)
     return (b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0]);
 }
 
-int srv_raster_draw_mesh(srv_raster *r, int cell, const srv_camera *c, const float *V, int nv,
-                         const uint32_t *F, int nf, const uint8_t color[3], char *err)
+/* rgb: the colour of vertex i at rgb + i * stride (stride 0: one colour for all) */
+static int draw_mesh(srv_raster *r, int cell, const srv_camera *c, const float *V, int nv,
+                     const uint32_t *F, int nf, const uint8_t *rgb, size_t stride, char *err)
 {
     if (nv < 0 || nv > r->max_nv)
         return srv_err(err, -EINVAL, "raster: %d vertices, the sheet was sized for %d", nv, r->max_nv);
@@ -214,6 +215,8 @@ int srv_raster_draw_mesh(srv_raster *r, int cell, const srv_camera *c, const flo
         int x0 = (int)fmaxf(0.0f, floorf(xmin)), x1 = (int)fminf((float)r->cell_w - 1, ceilf(xmax));
         int y0 = (int)fmaxf(0.0f, floorf(ymin)), y1 = (int)fminf((float)r->cell_h - 1, ceilf(ymax));
         float s0 = r->shade[F[3 * f]], s1 = r->shade[F[3 * f + 1]], s2 = r->shade[F[3 * f + 2]];
+        const uint8_t *c0 = rgb + stride * F[3 * f], *c1 = rgb + stride * F[3 * f + 1],
+                      *c2 = rgb + stride * F[3 * f + 2];
         float inv = 1.0f / area;
         for (int y = y0; y <= y1; y++)
             for (int x = x0; x <= x1; x++) {
@@ -229,12 +232,27 @@ int srv_raster_draw_mesh(srv_raster *r, int cell, const srv_camera *c, const flo
                 r->z[idx] = z;
                 float s = b0 * s0 + b1 * s1 + b2 * s2;
                 for (int k = 0; k < 3; k++) {
-                    float v = (float)color[k] * s;
+                    /* Gouraud: shade and colour both interpolated */
+                    float v = stride ? b0 * s0 * c0[k] + b1 * s1 * c1[k] + b2 * s2 * c2[k]
+                                     : (float)c0[k] * s;
                     r->rgb[3 * idx + k] = (uint8_t)(v > 255 ? 255 : v < 0 ? 0 : v + 0.5f);
                 }
             }
     }
     return 0;
+}
+
+int srv_raster_draw_mesh(srv_raster *r, int cell, const srv_camera *c, const float *V, int nv,
+                         const uint32_t *F, int nf, const uint8_t color[3], char *err)
+{
+    return draw_mesh(r, cell, c, V, nv, F, nf, color, 0, err);
+}
+
+int srv_raster_draw_mesh_coloured(srv_raster *r, int cell, const srv_camera *c, const float *V,
+                                  int nv, const uint32_t *F, int nf, const uint8_t *vertex_rgb,
+                                  char *err)
+{
+    return draw_mesh(r, cell, c, V, nv, F, nf, vertex_rgb, 3, err);
 }
 
 static void put(srv_raster *r, int cell, int x, int y, const uint8_t color[3])

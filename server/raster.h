@@ -49,6 +49,11 @@ void srv_raster_clear(srv_raster *r, const uint8_t bg[3]);
 int srv_raster_draw_mesh(srv_raster *r, int cell, const srv_camera *c, const float *V, int nv,
                          const uint32_t *F, int nf, const uint8_t color[3], char *err);
 
+/* The same with a colour per vertex (vertex_rgb: nv x 3), interpolated across each face. */
+int srv_raster_draw_mesh_coloured(srv_raster *r, int cell, const srv_camera *c, const float *V,
+                                  int nv, const uint32_t *F, int nf, const uint8_t *vertex_rgb,
+                                  char *err);
+
 /* Draws n points (P: n x 3; valid may be NULL = all) as filled discs on top of the cell. */
 void srv_raster_draw_points(srv_raster *r, int cell, const srv_camera *c, const float *P,
                             const uint8_t *valid, int n, int radius, const uint8_t color[3]);

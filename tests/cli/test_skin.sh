@@ -23,6 +23,13 @@ expect_status 0 "$ms" inspect "$dir/both.msm"
 grep -q "steer (primary), skin" "$dir/out" || { cat "$dir/out"; fail "inspect does not list both kinds"; }
 expect_status 2 "$ms" skin --mesh "$dir/ex/mesh" --bones 8 --add-to "$dir/both.msm" -o "$dir/x.msm"
 grep -q "already holds" "$dir/err" || fail "a second skin is not refused"
+# render --skin: the bones as colour (tests/server/test_bone_colours.c checks the regions)
+expect_status 0 "$ms" render --mesh "$dir/ex/mesh" --frames 0:30:10 -o "$dir/plain.png"
+expect_status 0 "$ms" render --mesh "$dir/ex/mesh" --frames 0:30:10 --skin "$dir/both.msm" -o "$dir/bones.png"
+head -c 8 "$dir/bones.png" | od -An -tx1 | grep -q "89 50 4e 47" || fail "render --skin did not write a PNG"
+! cmp -s "$dir/plain.png" "$dir/bones.png" || fail "render --skin drew the same sheet as without"
+expect_status 2 "$ms" render --mesh "$dir/ex/mesh" --skin "$dir/ex.msm" -o "$dir/x.png"
+grep -q "holds no skin" "$dir/err" || fail "render --skin: no message for a model without a skin"
 
 horse=$data/meshes/horse-gallop
 if [ ! -d "$horse" ]; then echo "skip: $horse not found (real-data part)"; exit 0; fi
