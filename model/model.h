@@ -429,8 +429,10 @@ int mdl_skin_get_stats(const mdl_model *m, mdl_skin_stats *st);
 int mdl_skin_get(const mdl_model *m, int *nb, int *K, int *nframes, const int **bone,
                  const double **w, const double **T);
 /* glTF 2.0 binary (.glb, gltf.c): the rest mesh, one joint per bone, JOINTS_0/WEIGHTS_0 and one
- * animation (translation + rotation per bone per fitted frame). Needs K <= 4. */
-int mdl_skin_write_gltf(const mdl_model *m, const char *path, char *err);
+ * animation (translation + rotation per bone per fitted frame). close_loop: one more key at
+ * N / fps equal to frame 0, so that an engine looping the clip plays the skin's loop (frame N - 1
+ * to frame 0 in one frame's time) instead of jumping; 0: the clip ends at frame N - 1. K <= 4. */
+int mdl_skin_write_gltf(const mdl_model *m, const char *path, int close_loop, char *err);
 
 /* ------------------------------------------------------------------ variations (Zheng 2013, variations/) */
 

@@ -40,7 +40,10 @@ static const char usage_text[] =
     "  -o SKIN.msm           the model file to write\n"
     "  --add-to MODEL.msm    put the skin beside the kinds of an existing model over the same\n"
     "                        mesh and write the result to -o (default: MODEL.msm itself)\n"
-    "  --gltf OUT.glb        also write a glTF 2.0 binary (needs K <= 4)\n"
+    "  --gltf OUT.glb        also write a glTF 2.0 binary (needs K <= 4); its clip ends with\n"
+    "                        frame 0 again at N / fps, so that an engine looping it plays the\n"
+    "                        skin's own loop without a jump\n"
+    "  --gltf-once           the clip ends at frame N - 1 instead (a clip played once)\n"
     "  --name NAME           model name (default 'skin')\n"
     "  --json                print bones, max_influences, frames, vertices, rmse, rmse_over_diag,\n"
     "                        max_err, seconds, threads as one JSON object\n";
@@ -101,19 +104,19 @@ int cmd_skin(int argc, char **argv)
 {
     const char *cmd = "skin", *mesh = NULL, *rest = NULL, *frames = NULL, *outp = NULL,
                *addto = NULL, *gltf = NULL, *name = NULL;
-    int json = 0, threads = (int)sysconf(_SC_NPROCESSORS_ONLN), seed = 1;
+    int json = 0, threads = (int)sysconf(_SC_NPROCESSORS_ONLN), seed = 1, gltf_once = 0;
     mdl_skin_opts so;
     mdl_skin_opts_default(&so);
     so.bones = 0;
     enum { O_MESH = 256, O_REST, O_BONES, O_K, O_FRAMES, O_ITER, O_TOL, O_SMOOTH, O_THREADS,
-           O_SEED, O_ADD, O_GLTF, O_NAME, O_JSON };
+           O_SEED, O_ADD, O_GLTF, O_GLTF_ONCE, O_NAME, O_JSON };
     static const struct option lo[] = {
         {"mesh", 1, 0, O_MESH},         {"rest", 1, 0, O_REST},       {"bones", 1, 0, O_BONES},
         {"max-influences", 1, 0, O_K},  {"frames", 1, 0, O_FRAMES},   {"iterations", 1, 0, O_ITER},
         {"tolerance", 1, 0, O_TOL},     {"smooth", 1, 0, O_SMOOTH},   {"threads", 1, 0, O_THREADS},
         {"seed", 1, 0, O_SEED},         {"add-to", 1, 0, O_ADD},      {"gltf", 1, 0, O_GLTF},
         {"name", 1, 0, O_NAME},         {"json", 0, 0, O_JSON},       {"help", 0, 0, 'h'},
-        {0, 0, 0, 0}};
+        {"gltf-once", 0, 0, O_GLTF_ONCE}, {0, 0, 0, 0}};
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "ho:", lo, NULL)) != -1) {
@@ -130,6 +133,7 @@ int cmd_skin(int argc, char **argv)
         case O_SEED: if (cli_parse_int(cmd, "--seed", optarg, &seed)) return CLI_EXIT_USAGE; break;
         case O_ADD: addto = optarg; break;
         case O_GLTF: gltf = optarg; break;
+        case O_GLTF_ONCE: gltf_once = 1; break;
         case O_NAME: name = optarg; break;
         case O_JSON: json = 1; break;
         case 'o': outp = optarg; break;
@@ -196,7 +200,7 @@ int cmd_skin(int argc, char **argv)
     }
     mdl_skin_stats st;
     mdl_skin_get_stats(model, &st);
-    if (gltf && mdl_skin_write_gltf(model, gltf, err)) {
+    if (gltf && mdl_skin_write_gltf(model, gltf, !gltf_once, err)) {
         status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
         goto out;
     }

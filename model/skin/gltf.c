@@ -12,7 +12,11 @@
  *   - one animation "ssdr": per bone a translation and a rotation channel with a sample per
  *     fitted frame at f / fps (LINEAR): the joint's transform is T_j^f translate(c_j), i.e.
  *     rotation R_j^f and translation R_j^f c_j + t_j^f, so the skinned vertex is
- *     sum_j w_ij T_j^f p_i exactly as the skin (Le & Deng's LBS model, ssdr.h);
+ *     sum_j w_ij T_j^f p_i exactly as the skin (Le & Deng's LBS model, ssdr.h); with close_loop,
+ *     one more key at N / fps repeats frame 0, so the clip lasts N / fps and an engine looping it
+ *     (three.js's default LoopRepeat, Blender's cyclic NLA) goes from frame N - 1 to frame 0 in one
+ *     frame's time, as the skin's own playback (play.c) does; without it the clip ends at
+ *     (N - 1) / fps (a clip played once);
  *   - quaternions (x, y, z, w), sign-continuous from frame to frame; weights float, normalised
  *     to a unit sum; joints unsigned short. Needs K <= 4 (one JOINTS_0/WEIGHTS_0 set).
  * Read back by three.js's GLTFLoader in headless chromium (tests/model/skin/gltf_three.mjs, meson
@@ -66,7 +70,7 @@ static void view_accessor(cJSON *views, cJSON *accs, size_t off, size_t len, int
     cJSON_AddItemToArray(accs, a);
 }
 
-int mdl_skin_write_gltf(const mdl_model *m, const char *path, char *err)
+int mdl_skin_write_gltf(const mdl_model *m, const char *path, int close_loop, char *err)
 {
     int nb, K, nfr;
     const int *bone;
@@ -79,12 +83,13 @@ int mdl_skin_write_gltf(const mdl_model *m, const char *path, char *err)
     mdl_model_get_info(m, &info);
     int nv = info.nv, nf = info.nf;
     double fps = info.fps > 0 ? info.fps : 30;
-    size_t cap = (size_t)nv * (12 + 8 + 16) + (size_t)nf * 12 + (size_t)nb * 64 + (size_t)nfr * 4 +
-                 (size_t)nfr * nb * 28 + 8 * (size_t)nb + 64;
+    int nk = nfr + (close_loop ? 1 : 0); /* keys: the fitted frames, then frame 0 again */
+    size_t cap = (size_t)nv * (12 + 8 + 16) + (size_t)nf * 12 + (size_t)nb * 64 + (size_t)nk * 4 +
+                 (size_t)nk * nb * 28 + 8 * (size_t)nb + 64;
     bin b = {mdl__calloc(cap, 1), 0};
     double *cen = mdl__calloc(4 * (size_t)nb, sizeof *cen);
     uint16_t *jt = mdl__calloc(4 * (size_t)nv, sizeof *jt);
-    float *wt = mdl__calloc(4 * (size_t)nv, sizeof *wt), *tmp = mdl__calloc(4 * (size_t)nfr * nb + 16 * (size_t)nb + 4 * (size_t)nfr, sizeof *tmp);
+    float *wt = mdl__calloc(4 * (size_t)nv, sizeof *wt), *tmp = mdl__calloc(7 * (size_t)nk + 16 * (size_t)nb, sizeof *tmp);
     cJSON *root = cJSON_CreateObject();
     int rc = 0;
     if (!b.p || !cen || !jt || !wt || !tmp || !root) {
@@ -144,17 +149,17 @@ int mdl_skin_write_gltf(const mdl_model *m, const char *path, char *err)
     o = put(&b, ibm, 64 * (size_t)nb);
     view_accessor(views, accs, o, 64 * (size_t)nb, 5126, nb, "MAT4", NULL, NULL, 0); /* 4 IBM */
     float *times = tmp;
-    for (int f = 0; f < nfr; f++)
+    for (int f = 0; f < nk; f++)
         times[f] = (float)(f / fps);
-    float tmn = 0, tmx = times[nfr - 1];
-    o = put(&b, times, 4 * (size_t)nfr);
-    view_accessor(views, accs, o, 4 * (size_t)nfr, 5126, nfr, "SCALAR", &tmn, &tmx, 1); /* 5 */
+    float tmn = 0, tmx = times[nk - 1];
+    o = put(&b, times, 4 * (size_t)nk);
+    view_accessor(views, accs, o, 4 * (size_t)nk, 5126, nk, "SCALAR", &tmn, &tmx, 1); /* 5 */
     /* per bone: translations (accessor 6 + 2j), rotations (7 + 2j) */
     for (int j = 0; j < nb; j++) {
-        float *tr = tmp, *rot = tmp + 3 * (size_t)nfr;
+        float *tr = tmp, *rot = tmp + 3 * (size_t)nk;
         double prev[4] = {1, 0, 0, 0};
-        for (int f = 0; f < nfr; f++) {
-            const double *M = T + 12 * ((size_t)f * nb + j), *c = cen + 4 * (size_t)j;
+        for (int f = 0; f < nk; f++) {
+            const double *M = T + 12 * ((size_t)(f % nfr) * nb + j), *c = cen + 4 * (size_t)j;
             double q[4];
             mdl__mat_to_quat(M, q);
             double dot = q[0] * prev[0] + q[1] * prev[1] + q[2] * prev[2] + q[3] * prev[3];
@@ -170,10 +175,10 @@ int mdl_skin_write_gltf(const mdl_model *m, const char *path, char *err)
             for (int a = 0; a < 3; a++)
                 tr[3 * f + a] = (float)(M[3 * a] * c[0] + M[3 * a + 1] * c[1] + M[3 * a + 2] * c[2] + M[9 + a]);
         }
-        o = put(&b, tr, 12 * (size_t)nfr);
-        view_accessor(views, accs, o, 12 * (size_t)nfr, 5126, nfr, "VEC3", NULL, NULL, 0);
-        o = put(&b, rot, 16 * (size_t)nfr);
-        view_accessor(views, accs, o, 16 * (size_t)nfr, 5126, nfr, "VEC4", NULL, NULL, 0);
+        o = put(&b, tr, 12 * (size_t)nk);
+        view_accessor(views, accs, o, 12 * (size_t)nk, 5126, nk, "VEC3", NULL, NULL, 0);
+        o = put(&b, rot, 16 * (size_t)nk);
+        view_accessor(views, accs, o, 16 * (size_t)nk, 5126, nk, "VEC4", NULL, NULL, 0);
     }
     cJSON *buffers = cJSON_AddArrayToObject(root, "buffers"), *buf = cJSON_CreateObject();
     cJSON_AddNumberToObject(buf, "byteLength", (double)b.n);

@@ -1,6 +1,7 @@
 /* gltf_fixture.c - the C half of the glTF check (issue 10; gltf_three.mjs is the reader's half):
  * fits a skin to the built-in example creature (48 frames, 8 bones, 4 influences; no shared data
- * needed), writes OUT/skin.glb with mdl_skin_write_gltf and OUT/expected.bin with our own
+ * needed), writes OUT/skin.glb with mdl_skin_write_gltf (the loop closed: a last key at N / fps
+ * repeats frame 0), OUT/once.glb (the clip ends at N - 1) and OUT/expected.bin with our own
  * reconstruction of fitted frames 0, N/2 and N-1:
  *     v_i(f) = sum_s w_is (R_b^f p_i + t_b^f)     (Le & Deng's LBS model, ssdr.h)
  * in double from the skin's weights and bone transforms (mdl_skin_get), the fit's own definition
@@ -49,7 +50,12 @@ int main(int argc, char **argv)
         return 1;
     }
     snprintf(path, sizeof path, "%s/skin.glb", argv[1]);
-    if (mdl_skin_write_gltf(m, path, err)) {
+    int wrc = mdl_skin_write_gltf(m, path, 1, err);
+    if (!wrc) {
+        snprintf(path, sizeof path, "%s/once.glb", argv[1]);
+        wrc = mdl_skin_write_gltf(m, path, 0, err);
+    }
+    if (wrc) {
         fprintf(stderr, "gltf: %s\n", err);
         return 1;
     }

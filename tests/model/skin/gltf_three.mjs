@@ -6,8 +6,11 @@
 // Node compares them with OUT/expected.bin (our reconstruction of the same frames) and fails unless
 // the largest vertex error is at most 1e-4 of the rest bounding-box diagonal at every frame.
 //
-// The clip is played with LoopOnce and clampWhenFinished: its duration is the last key's time,
-// (N - 1) / fps, and three's default LoopRepeat would wrap that time to 0 (frame 0, not N - 1).
+// The clip is played with LoopOnce and clampWhenFinished, so that a key time is that key's pose
+// (three's default LoopRepeat wraps the clip's duration, the last key's time, to 0). skin.glb
+// closes the loop: N + 1 keys, the last at N / fps repeating frame 0, so a looping engine goes from
+// frame N - 1 to frame 0 in one frame's time; checked: its duration is N / fps and its last key's
+// pose is our frame 0. once.glb (--gltf-once) ends at frame N - 1: N keys, (N - 1) / fps.
 //
 // Usage: node gltf_three.mjs OUTDIR     (exit 77 = skip when chromium or playwright is absent)
 import { existsSync, mkdtempSync, readFileSync, rmSync, statSync } from 'node:fs';
@@ -62,8 +65,8 @@ const page = `<!doctype html><html><head><meta charset="utf-8">
 <script type="module">
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-window.skinned = async frames => {
-  const gltf = await new GLTFLoader().loadAsync('/out/skin.glb');
+window.skinned = async (file, frames) => {
+  const gltf = await new GLTFLoader().loadAsync('/out/' + file);
   const scene = gltf.scene;
   let mesh = null;
   scene.traverse(o => { if (o.isSkinnedMesh) mesh = o; });
@@ -145,17 +148,30 @@ try {
   pg.on('pageerror', e => { console.log(`page error: ${e.message}`); failed = true; });
   await pg.goto(base);
   await pg.waitForFunction(() => window.ready === true, null, { timeout: 30000 });
-  const info = await pg.evaluate(f => window.skinned(f), sel.map(s => s.frame));
+  const n = sel[nsel - 1].frame + 1; // the fitted frames: sel is 0, N/2, N - 1
+  // skin.glb: the checked frames, then the closing key N (expected: frame 0's pose at N / fps)
+  const info = await pg.evaluate(a => window.skinned(a.file, a.frames),
+                                 { file: 'skin.glb', frames: [...sel.map(s => s.frame), n] });
+  const once = await pg.evaluate(a => window.skinned(a.file, a.frames),
+                                 { file: 'once.glb', frames: [n - 1] });
   console.log(`three.js GLTFLoader: ${info.vertices} vertices, ${info.joints.length} joints ` +
               `(${info.joints.join(' ')}), animation "${info.clip}": ${info.tracks} tracks, ` +
-              `${info.keys} keys, ${info.duration.toFixed(6)} s`);
+              `${info.keys} keys, ${info.duration.toFixed(6)} s; once.glb ${once.keys} keys, ` +
+              `${once.duration.toFixed(6)} s`);
   const check = (ok, what) => { if (!ok) { console.log(`FAIL: ${what}`); failed = true; } };
   check(info.vertices === nv, `${info.vertices} vertices, not ${nv}`);
   check(info.joints.every((n, j) => n === `bone_${String(j).padStart(3, '0')}`), 'joint names');
   check(info.tracks === 2 * info.joints.length, 'a translation and a rotation track per joint');
-  check(Math.abs(info.duration - (info.keys - 1) / fps) < 1e-6, 'clip duration (N - 1) / fps');
-  info.frames.forEach((fr, k) => {
-    const e = posAt(k);
+  check(info.keys === n + 1, `skin.glb: ${info.keys} keys, not N + 1 = ${n + 1}`);
+  check(Math.abs(info.duration - n / fps) < 1e-6, 'skin.glb: clip duration N / fps');
+  check(once.keys === n, `once.glb: ${once.keys} keys, not N = ${n}`);
+  check(Math.abs(once.duration - (n - 1) / fps) < 1e-6, 'once.glb: clip duration (N - 1) / fps');
+  // expected per checked pose: sel[0..nsel) for skin.glb, then frame 0 (the closing key), then
+  // frame N - 1 of once.glb
+  const want = [...sel.map((s, k) => ({ k, time: s.time })), { k: 0, time: n / fps },
+                { k: nsel - 1, time: sel[nsel - 1].time }];
+  [...info.frames, ...once.frames].forEach((fr, q) => {
+    const e = posAt(want[q].k), name = q < nsel ? '' : q === nsel ? ' (closing key)' : ' (once.glb)';
     let max = 0, sum = 0, worst = -1;
     for (let i = 0; i < nv; i++) {
       const d = Math.hypot(fr.pos[3 * i] - e[3 * i], fr.pos[3 * i + 1] - e[3 * i + 1],
@@ -164,11 +180,11 @@ try {
       if (d > max) { max = d; worst = i; }
     }
     const ok = max <= 1e-4 * diag;
-    console.log(`frame ${fr.frame} (t = ${fr.time.toFixed(6)} s, expected ${sel[k].time.toFixed(6)}): ` +
+    console.log(`frame ${fr.frame}${name} (t = ${fr.time.toFixed(6)} s, expected ${want[q].time.toFixed(6)}): ` +
                 `max error ${max.toExponential(3)} m (${(max / diag).toExponential(3)} of the ` +
                 `diagonal ${diag.toFixed(4)} m, vertex ${worst}), rms ${Math.sqrt(sum / nv).toExponential(3)} m` +
                 (ok ? '' : '  > 1e-4 of the diagonal'));
-    check(Math.abs(fr.time - sel[k].time) < 1e-6, `frame ${fr.frame}: key time`);
+    check(Math.abs(fr.time - want[q].time) < 1e-6, `frame ${fr.frame}${name}: key time`);
     check(ok, `frame ${fr.frame}: skinned positions differ`);
   });
 } catch (e) {

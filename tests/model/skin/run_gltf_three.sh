@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # run_gltf_three.sh - the glTF export read back by a real reader (issue 10): gltf_fixture writes a
-# skin of the built-in example creature as skin.glb and our reconstruction of frames 0, N/2, N-1
-# as expected.bin; gltf_three.mjs loads the .glb with three.js's GLTFLoader in headless chromium
+# skin of the built-in example creature as skin.glb (loop closed) and once.glb (--gltf-once), and
+# our reconstruction of frames 0, N/2, N-1 as expected.bin; gltf_three.mjs loads the .glb with three.js's GLTFLoader in headless chromium
 # (playwright-core) and compares its skinned vertices with ours.
 # Usage: run_gltf_three.sh GLTF_FIXTURE        Exit 77 = skipped (no node, chromium or npm ci).
 set -euo pipefail
