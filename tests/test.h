@@ -99,6 +99,20 @@
         }                                                                                          \
     } while (0)
 
+/* The 1-minute load average (/proc/loadavg; 0 where there is none): benchmarks print it beside
+ * wall times on the shared machine. */
+static inline double test_load_average(void)
+{
+    double load = 0;
+    FILE *f = fopen("/proc/loadavg", "r");
+    if (f) {
+        if (fscanf(f, "%lf", &load) != 1)
+            load = 0;
+        fclose(f);
+    }
+    return load;
+}
+
 /* Path of a file in the shared data set; exits 77 (skip) when the data set is absent. */
 static inline const char *test_data(const char *rel)
 {

@@ -65,18 +65,6 @@ static int cmpd(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static double load_average(void)
-{
-    double load = 0;
-    FILE *f = fopen("/proc/loadavg", "r");
-    if (f) {
-        if (fscanf(f, "%lf", &load) != 1)
-            load = 0;
-        fclose(f);
-    }
-    return load;
-}
-
 static double json_number(const cJSON *o, const char *key)
 {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
@@ -159,7 +147,7 @@ static void run(const char *name, const mdl_meshseq *s, const float *rest, int b
         qsort(cpu, reps, sizeof *cpu, cmpd);
         printf("%s, load average %.2f\n  ours      %2d bones  %d thread%s  rmse %.5f  %3d "
                "iterations  wall median %.2f s (max %.2f)  cpu median %.2f s\n", name,
-               load_average(), bones, threads, threads > 1 ? "s" : " ", rmse, iters, wall[reps / 2],
+               test_load_average(), bones, threads, threads > 1 ? "s" : " ", rmse, iters, wall[reps / 2],
                wall[reps - 1], cpu[reps / 2]);
         const char *driver = getenv("DEMBONES");
         if (driver && *driver)

@@ -15,7 +15,7 @@
  *   nnz 8 unless --max-influences says (issue 10's setting is 4: `-z 4`);
  *   the rest pose u = the rest OBJ (for .pc2) or the first frame (OBJ folder), as `meshsteer skin`;
  *   fv = our triangles (the FBX reader would give the polygons; only the smoothness Laplacian uses
- *   them, and horse and samba are triangle meshes).
+ *   them, and horse-gallop, samba, pcow and pjump are all triangle meshes).
  * Dem Bones then writes an FBX (computeRTB); that output step is not timed or done here.
  *
  * Prints one JSON object in the shape of `meshsteer skin --json`: bones (what Dem Bones ended
