@@ -275,6 +275,9 @@ typedef struct mdl_harmonic_opts {
     int per_bone;         /* with a rig: automatic correspondence triangles per bone (Sec. 4.2) */
     const int *given_off; /* with a rig, may be NULL: per bone (rig limb) user triangles, */
     const int *given_idx; /*   given_idx[given_off[b] .. given_off[b+1]), completed by cross-section */
+    int keep_rest;        /* with a rig: 1 keeps the template's rest directions; 0 (default) poses
+                             each bone below the root onto the target's limb it lies in
+                             (rest_fit.c: a mocap rest pose is not the scan's T-pose) */
     const char *name;     /* model name */
     const mdl_markers *template_motion; /* may be NULL: the template's motion (a BVH's frames, as
                              synthesis will see them); its lowest marker over all frames is the

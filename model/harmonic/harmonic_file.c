@@ -158,6 +158,11 @@ int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_mar
                 h->root_bone = b;
         if ((rc = align_template(h, target, rig, template_rest, o->template_motion, err)))
             goto fail;
+        /* the template's rest pose onto the target's (rest_fit.c), before the correspondences */
+        int kept = 0;
+        if (!o->keep_rest &&
+            (rc = mdl__rest_fit(h, target->V, target->F, target->nv, target->nf, &kept, err)))
+            goto fail;
         /* the model's rig: each marker at the target vertex nearest its aligned joint */
         for (int i = 0; i < h->nmk; i++) {
             double best = INFINITY;
