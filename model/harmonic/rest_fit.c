@@ -9,21 +9,27 @@
  *
  * Per bone, parents first (a bone's start marker is final once no unfitted bone ends at it), from
  * its start a and length L (the scaled template's):
- *   - a candidate direction d gives the plane through q = a + L/2 d normal to d; its section of the
- *     target is a set of closed loops (triangles crossing the plane, joined across crossing edges);
- *     the loop whose centroid c is nearest q is the limb the bone would pass through, and
- *     |c - q| / L is how far off the limb's axis the bone runs (a limb's section is centred on its
- *     axis; a bone cutting into the torso meets a loop centred elsewhere);
- *   - the best of FIT_DIRS directions within FIT_CONE of the template's (a Fibonacci sphere), plus
- *     FIT_ANGLE x the angle to the template's direction (so a symmetric section does not pick a
- *     far direction by a hair), then FIT_REFINE steps d <- (c - a) / |c - a|;
+ *   - a candidate direction d: at FIT_SAMPLES points q along the bone (0.3 .. 0.9 of L) the plane
+ *     through q normal to d cuts the target into closed loops (triangles crossing the plane,
+ *     joined across crossing edges); the loop whose centre c is nearest q is the limb the bone
+ *     passes through there. Cost: the mean of |c - q| / r (r the loop's mean radius: 0 on a
+ *     limb's axis, 1 at its surface) + FIT_SIZE r / L (a limb, not the torso it joins), plus
+ *     FIT_ANGLE x the angle to the template's direction; a point outside its loop (the bone leaves
+ *     the body) rules d out;
+ *   - the best of FIT_DIRS directions within FIT_CONE of the template's (a Fibonacci sphere), then
+ *     of FIT_FINE within FIT_STEP of that;
+ *   - a chain's first bone (its start is no bone's end and no pelvis marker: a shoulder) may first
+ *     shift its start onto the limb, by the offset of its first point to its loop's centre (at most
+ *     FIT_SHIFT x L: a CMU shoulder sits ~10 cm above a T-posed arm);
  *   - the bone's end and every marker below it turn about a by the shortest arc from the old
  *     direction to the new: the markers reached through bones from its end, and the twist markers
  *     of those bones that are no bone's joint (a thumb twisting a forearm goes with the hand; the
- *     other hip twisting a thigh stays).
+ *     other hip twisting a thigh stays); then the end moves onto the centre of the section through
+ *     it, if it lies inside (a knee on the front of the knee would start the shin off its axis).
  * The root's own bones (from the rig's root marker: the pelvis) keep the template's directions: a
  * pelvis is no limb, its section is the whole hip. A bone keeps its direction when no candidate
- * meets a loop, and then reports it in `kept`. Set-up only: allocates. */
+ * meets a loop, and then reports it in `kept`. A section visits only the triangles of the grid
+ * cells its plane passes (a uniform grid over the centroids). Set-up only: allocates. */
 #include "harmonic/harmonic_internal.h"
 #include "core/util.h"
 
@@ -32,7 +38,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define FIT_DIRS 400       /* directions on the whole sphere (~10 deg apart) */
+#define FIT_DIRS 400       /* directions on the whole sphere (~10 deg apart; 160 missed a thigh) */
 #define FIT_CONE 100.0     /* deg from the template's direction: an arm hanging vs a T-pose is 90 */
 #define FIT_ANGLE 0.1      /* cost per radian away from the template's direction */
 #define FIT_SAMPLES 4      /* sections along the bone, at 0.3 .. 0.9 of its length */
@@ -46,8 +52,14 @@ typedef struct fitter {
     const uint32_t *F;
     int nv, nf;
     int *adj;      /* nf x 3: the triangle across edge k (F[k], F[k+1]), or -1 */
-    int *cand;     /* the triangles near the bone being fitted */
+    int *cand;     /* the triangles a section crosses (found in the cells it passes) */
     int ncand;
+    /* a uniform grid of cell size gh over the triangles' centroids (CSR: cell_off, cell_tri) */
+    int gdim[3], ncell;
+    double gorg[3], gh, trad; /* trad: the farthest corner from its triangle's centroid */
+    int *cell_off, *cell_tri;
+    int *bcell, nbcell; /* the cells near the bone being fitted */
+    uint8_t *inball;    /* nf: the triangle is near the bone being fitted */
     double *s;     /* nv: signed distance to the plane */
     int *par;      /* nf: union-find over crossing triangles */
     double *acc;   /* nf x 4: per loop root, length-weighted sum of segment midpoints, and length */
@@ -96,25 +108,105 @@ static int build_adjacency(fitter *f, char *err)
     return 0;
 }
 
+/* the grid: FIT_GRID cells along the longest side of the centroids' box at FIT_GRID_NF triangles,
+ * growing as nf^(1/4) (a section's cost: the cells near the bone, ~ cells, plus the triangles in
+ * its slab, ~ nf / cells^(1/3); both balanced there) */
+#define FIT_GRID 48
+#define FIT_GRID_NF 13776.0
+static int build_grid(fitter *f, char *err)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double *C = mdl__calloc(3 * (size_t)f->nf, sizeof *C);
+    int *cell = mdl__calloc((size_t)f->nf, sizeof *cell);
+    if (!C || !cell) {
+        free(C), free(cell);
+        return mdl__err(err, -ENOMEM, "rest fit: out of memory");
+    }
+    f->trad = 0;
+    for (int t = 0; t < f->nf; t++) {
+        for (int j = 0; j < 3; j++) {
+            C[3 * t + j] = ((double)f->V[3 * f->F[3 * t] + j] + f->V[3 * f->F[3 * t + 1] + j] +
+                            f->V[3 * f->F[3 * t + 2] + j]) / 3;
+            lo[j] = fmin(lo[j], C[3 * t + j]);
+            hi[j] = fmax(hi[j], C[3 * t + j]);
+        }
+        for (int k = 0; k < 3; k++) {
+            const float *p = f->V + 3 * f->F[3 * t + k];
+            double dd = sqrt((p[0] - C[3 * t]) * (p[0] - C[3 * t]) + (p[1] - C[3 * t + 1]) * (p[1] - C[3 * t + 1]) +
+                             (p[2] - C[3 * t + 2]) * (p[2] - C[3 * t + 2]));
+            f->trad = fmax(f->trad, dd);
+        }
+    }
+    double ext = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    f->gh = ext > 0 ? ext / (FIT_GRID * pow(fmax(1.0, f->nf / FIT_GRID_NF), 1.0 / 3)) : 1;
+    f->ncell = 1;
+    for (int j = 0; j < 3; j++) {
+        f->gorg[j] = lo[j];
+        f->gdim[j] = (int)((hi[j] - lo[j]) / f->gh) + 1;
+        f->ncell *= f->gdim[j];
+    }
+    f->cell_off = mdl__calloc((size_t)f->ncell + 1, sizeof *f->cell_off);
+    f->cell_tri = mdl__calloc((size_t)f->nf, sizeof *f->cell_tri);
+    f->bcell = mdl__calloc((size_t)f->ncell, sizeof *f->bcell);
+    if (!f->cell_off || !f->cell_tri || !f->bcell) {
+        free(C), free(cell);
+        return mdl__err(err, -ENOMEM, "rest fit: out of memory");
+    }
+    for (int t = 0; t < f->nf; t++) {
+        int ix[3];
+        for (int j = 0; j < 3; j++) {
+            ix[j] = (int)((C[3 * t + j] - lo[j]) / f->gh);
+            ix[j] = ix[j] < 0 ? 0 : ix[j] >= f->gdim[j] ? f->gdim[j] - 1 : ix[j];
+        }
+        cell[t] = ix[0] + f->gdim[0] * (ix[1] + f->gdim[1] * ix[2]);
+        f->cell_off[cell[t] + 1]++;
+    }
+    for (int i = 0; i < f->ncell; i++)
+        f->cell_off[i + 1] += f->cell_off[i];
+    for (int t = 0; t < f->nf; t++)
+        f->cell_tri[f->cell_off[cell[t]]++] = t;
+    for (int i = f->ncell; i > 0; i--)
+        f->cell_off[i] = f->cell_off[i - 1];
+    f->cell_off[0] = 0;
+    free(C), free(cell);
+    return 0;
+}
+
 /* The section by the plane through q normal to d among f->cand: the centroid of the loop whose
  * centroid is nearest q, in c, and the loop's mean distance from it (its radius) in *r. Returns
  * the distance |q - c|, or INFINITY without any loop. */
 static double section(fitter *f, const double *q, const double *d, double c[3], double *r)
 {
-    for (int i = 0; i < f->ncand; i++)
-        for (int k = 0; k < 3; k++) {
-            int v = (int)f->F[3 * f->cand[i] + k];
-            const float *p = f->V + 3 * v;
-            f->s[v] = ((double)p[0] - q[0]) * d[0] + ((double)p[1] - q[1]) * d[1] +
-                      ((double)p[2] - q[2]) * d[2];
+    /* the triangles of the cells the plane passes (a cell's centre within half its diagonal and
+     * a triangle's reach of the plane) */
+    f->ncand = 0;
+    double reach = 0.8660254037844386 * f->gh + f->trad;
+    for (int i = 0; i < f->nbcell; i++) {
+        int cl = f->bcell[i], x = cl % f->gdim[0], y = (cl / f->gdim[0]) % f->gdim[1],
+            z = cl / (f->gdim[0] * f->gdim[1]);
+        double cc[3] = {f->gorg[0] + (x + 0.5) * f->gh, f->gorg[1] + (y + 0.5) * f->gh,
+                        f->gorg[2] + (z + 0.5) * f->gh};
+        if (fabs((cc[0] - q[0]) * d[0] + (cc[1] - q[1]) * d[1] + (cc[2] - q[2]) * d[2]) > reach)
+            continue;
+        for (int j = f->cell_off[cl]; j < f->cell_off[cl + 1]; j++) {
+            int t = f->cell_tri[j];
+            if (!f->inball[t])
+                continue;
+            const uint32_t *tri = f->F + 3 * t;
+            int pos = 0;
+            for (int k = 0; k < 3; k++) {
+                const float *p = f->V + 3 * tri[k];
+                f->s[tri[k]] = ((double)p[0] - q[0]) * d[0] + ((double)p[1] - q[1]) * d[1] +
+                               ((double)p[2] - q[2]) * d[2];
+                pos += f->s[tri[k]] >= 0;
+            }
+            if (pos == 0 || pos == 3)
+                continue;
+            /* a crossing triangle: par[t] = t (every other stays -2) */
+            f->cand[f->ncand++] = t;
+            f->par[t] = t;
+            memset(f->acc + 4 * (size_t)t, 0, 4 * sizeof *f->acc);
         }
-    /* crossing triangles: par[t] = t; others par[t] = -1 */
-    for (int i = 0; i < f->ncand; i++) {
-        int t = f->cand[i];
-        const uint32_t *tri = f->F + 3 * t;
-        int pos = (f->s[tri[0]] >= 0) + (f->s[tri[1]] >= 0) + (f->s[tri[2]] >= 0);
-        f->par[t] = pos == 0 || pos == 3 ? -1 : t;
-        memset(f->acc + 4 * (size_t)t, 0, 4 * sizeof *f->acc);
     }
     for (int i = 0; i < f->ncand; i++) {
         int t = f->cand[i];
@@ -123,8 +215,7 @@ static double section(fitter *f, const double *q, const double *d, double c[3], 
         for (int k = 0; k < 3; k++) {
             int u = f->adj[3 * t + k];
             uint32_t a = f->F[3 * t + k], b = f->F[3 * t + (k + 1) % 3];
-            /* u must be a candidate that crosses too: its par was set this call, or is stale;
-             * f->par of a non-candidate is -2 (set by the caller) */
+            /* u must cross too: par >= 0 was set this call, every other triangle's is -2 */
             if (u < 0 || f->par[u] < 0 || (f->s[a] >= 0) == (f->s[b] >= 0))
                 continue;
             int ra = uf_find(f->par, t), rb = uf_find(f->par, u);
@@ -280,15 +371,16 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
     f.acc = mdl__calloc(4 * (size_t)nf, sizeof *f.acc);
     f.mid = mdl__calloc(3 * (size_t)nf, sizeof *f.mid);
     f.len = mdl__calloc((size_t)nf, sizeof *f.len);
+    f.inball = mdl__calloc((size_t)nf, 1);
     uint8_t *done = mdl__calloc((size_t)nb + 1, 1), *below = mdl__calloc((size_t)h->nmk + 1, 1);
     uint8_t *twist_only = mdl__calloc((size_t)h->nmk + 1, 1);
     uint8_t *chain_start = mdl__calloc((size_t)h->nmk + 1, 1);
     double *dirs = mdl__calloc(3 * FIT_DIRS, sizeof *dirs);
-    if (!f.adj || !f.cand || !f.s || !f.par || !f.acc || !f.mid || !f.len || !done || !below || !twist_only || !chain_start || !dirs) {
+    if (!f.adj || !f.cand || !f.s || !f.par || !f.acc || !f.mid || !f.len || !f.inball || !done || !below || !twist_only || !chain_start || !dirs) {
         rc = mdl__err(err, -ENOMEM, "rest fit: out of memory");
         goto out;
     }
-    if ((rc = build_adjacency(&f, err)))
+    if ((rc = build_adjacency(&f, err)) || (rc = build_grid(&f, err)))
         goto out;
     for (int o = 0; o < nb; o++)
         if (h->bone_c[o] >= 0)
@@ -340,18 +432,24 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
         for (int j = 0; j < 3; j++)
             d0[j] /= L;
         /* the triangles that any candidate's section near q can reach: within 1.6 L of a */
-        f.ncand = 0;
         double r2 = 2.56 * L * L;
-        for (int t = 0; t < nf; t++)
-            for (int k = 0; k < 3; k++) {
-                const float *p = V + 3 * F[3 * t + k];
-                double dd = ((double)p[0] - pa[0]) * (p[0] - pa[0]) + ((double)p[1] - pa[1]) * (p[1] - pa[1]) +
-                            ((double)p[2] - pa[2]) * (p[2] - pa[2]);
-                if (dd <= r2) {
-                    f.cand[f.ncand++] = t;
-                    break;
+        memset(f.inball, 0, (size_t)nf);
+        f.nbcell = 0;
+        for (int cl = 0; cl < f.ncell; cl++) {
+            int any = 0;
+            for (int j = f.cell_off[cl]; j < f.cell_off[cl + 1]; j++) {
+                int t = f.cell_tri[j];
+                for (int k = 0; k < 3 && !f.inball[t]; k++) {
+                    const float *p = V + 3 * F[3 * t + k];
+                    double dd = ((double)p[0] - pa[0]) * (p[0] - pa[0]) +
+                                ((double)p[1] - pa[1]) * (p[1] - pa[1]) + ((double)p[2] - pa[2]) * (p[2] - pa[2]);
+                    f.inball[t] = dd <= r2;
                 }
+                any |= f.inball[t];
             }
+            if (any)
+                f.bcell[f.nbcell++] = cl;
+        }
         double best = INFINITY, bd[3] = {0}, boff[3] = {0}, off[3];
         for (int i = 0; i < FIT_DIRS; i++) {
             double cost = dir_cost(&f, pa, L, dirs + 3 * i, d0, cone, chain_start[h->bone_a[g]], off);
@@ -420,6 +518,7 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
     }
 out:
     free(f.adj), free(f.cand), free(f.s), free(f.par), free(f.acc), free(f.mid), free(f.len);
+    free(f.inball), free(f.cell_off), free(f.cell_tri), free(f.bcell);
     free(done), free(below), free(twist_only), free(chain_start), free(dirs);
     return rc;
 }
