@@ -17,7 +17,7 @@ static void render_usage(FILE *f)
 {
     fprintf(f,
             "usage: meshsteer render --mesh PATH [--rest REST.obj] [--frames SPEC] [--cols N]\n"
-            "                        [--size PX] [--markers FILE] -o SHEET.png\n\n"
+            "                        [--size PX] [--markers FILE] [--model MODEL] -o SHEET.png\n\n"
             "Draws a contact sheet of shaded frames of a mesh sequence.\n\n"
             "  --mesh PATH      a directory of numbered OBJ frames, or a .pc2 point cache\n"
             "  --rest REST.obj  topology for a .pc2 cache\n"
@@ -26,15 +26,28 @@ static void render_usage(FILE *f)
             "  --size PX        cell width in pixels, height is 3/4 of it (default 256)\n"
             "  --markers FILE   a marker file (.c3d .trc .bvh .csv .amc); frame i of the sheet shows\n"
             "                   marker frame i of the mesh sequence's numbering\n"
+            "  --model MODEL    a harmonic model of this mesh: its correspondence triangles drawn\n"
+            "                   in one colour per group (template bone)\n"
             "  -o SHEET.png     output image\n",
             DEFAULT_FRAMES);
 }
 
 int cmd_render(int argc, char **argv);
 
+/* a saturated colour per group, hues spread by the golden angle */
+static void group_colour(int g, uint8_t c[3])
+{
+    double h = fmod(g * 137.508, 360.0) / 60.0, x = 1 - fabs(fmod(h, 2.0) - 1);
+    double rgb[6][3] = {{1, x, 0}, {x, 1, 0}, {0, 1, x}, {0, x, 1}, {x, 0, 1}, {1, 0, x}};
+    const double *p = rgb[(int)h % 6];
+    for (int k = 0; k < 3; k++)
+        c[k] = (uint8_t)(40 + 200 * p[k]);
+}
+
 int cmd_render(int argc, char **argv)
 {
-    const char *mesh = NULL, *rest = NULL, *spec = NULL, *markers_path = NULL, *out = NULL;
+    const char *mesh = NULL, *rest = NULL, *spec = NULL, *markers_path = NULL, *out = NULL,
+               *model_path = NULL;
     int cols = 4, size = 256;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -53,6 +66,8 @@ int cmd_render(int argc, char **argv)
             spec = v;
         else if (!strcmp(a, "--markers"))
             markers_path = v;
+        else if (!strcmp(a, "--model"))
+            model_path = v;
         else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
             out = v;
         else if (!strcmp(a, "--cols")) {
@@ -78,7 +93,10 @@ int cmd_render(int argc, char **argv)
     mdl_meshseq *seq = NULL;
     mdl_markers *mk = NULL;
     srv_raster *r = NULL;
+    mdl_model *model = NULL;
     int *idx = NULL, n = 0;
+    uint32_t *cf = NULL; /* --model: the correspondence triangles, ordered by group */
+    int *goff = NULL, ngroups = 0;
 
     if ((rc = mdl_meshseq_read(mesh, rest, &seq, err)) != 0) {
         status = cli_fail(CMD, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);
@@ -114,6 +132,38 @@ int cmd_render(int argc, char **argv)
         }
     }
 
+    if (model_path) {
+        const int *ct, *cg;
+        int nc;
+        if ((rc = mdl_model_load(model_path, &model, err)) != 0 ||
+            (rc = mdl_harmonic_correspondences(model, &ct, &cg, &nc, &ngroups)) != 0) {
+            status = cli_fail(CMD, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s",
+                              err[0] ? err : "--model: not a harmonic model");
+            goto done;
+        }
+        cf = malloc(3 * (size_t)nc * sizeof *cf + 1);
+        goff = calloc((size_t)ngroups + 1, sizeof *goff);
+        if (!cf || !goff) {
+            status = cli_fail(CMD, CLI_EXIT_FAIL, "out of memory");
+            goto done;
+        }
+        for (int k = 0; k < nc; k++)
+            goff[cg[k] + 1]++;
+        for (int g = 0; g < ngroups; g++)
+            goff[g + 1] += goff[g];
+        for (int k = 0, *at = goff; k < nc; k++) {
+            if (ct[k] >= seq->nf) {
+                status = cli_usage_error(CMD, "--model %s: triangle %d is not in --mesh (%d "
+                                         "triangles)", model_path, ct[k], seq->nf);
+                goto done;
+            }
+            memcpy(cf + 3 * (size_t)at[cg[k]]++, seq->F + 3 * (size_t)ct[k], 3 * sizeof *cf);
+        }
+        for (int g = ngroups; g > 0; g--)
+            goff[g] = goff[g - 1];
+        goff[0] = 0;
+    }
+
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int i = 0; i < n; i++)
         srv_bbox_extend(lo, hi, seq->V + (size_t)idx[i] * seq->nv * 3, seq->nv);
@@ -133,6 +183,16 @@ int cmd_render(int argc, char **argv)
     int scale = size >= 192 ? 2 : 1;
     for (int i = 0; i < n; i++) {
         const float *V = seq->V + (size_t)idx[i] * seq->nv * 3;
+        /* correspondences first: the body's same triangles then fail the strict depth test */
+        for (int g = 0; g < ngroups; g++) {
+            uint8_t col[3];
+            group_colour(g, col);
+            if ((rc = srv_raster_draw_mesh(r, i, &cam, V, seq->nv, cf + 3 * (size_t)goff[g],
+                                           goff[g + 1] - goff[g], col, err)) != 0) {
+                status = cli_fail(CMD, CLI_EXIT_FAIL, "%s", err);
+                goto done;
+            }
+        }
         if ((rc = srv_raster_draw_mesh(r, i, &cam, V, seq->nv, seq->F, seq->nf, body, err)) != 0) {
             status = cli_fail(CMD, CLI_EXIT_FAIL, "%s", err);
             goto done;
@@ -152,6 +212,9 @@ int cmd_render(int argc, char **argv)
     status = CLI_EXIT_OK;
 done:
     free(idx);
+    free(cf);
+    free(goff);
+    mdl_model_destroy(model);
     srv_raster_destroy(r);
     mdl_markers_destroy(mk);
     mdl_meshseq_destroy(seq);

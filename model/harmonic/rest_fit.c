@@ -16,8 +16,8 @@
  *     limb's axis, 1 at its surface) + FIT_SIZE r / L (a limb, not the torso it joins), plus
  *     FIT_ANGLE x the angle to the template's direction; a point outside its loop (the bone leaves
  *     the body) rules d out;
- *   - the best of FIT_DIRS directions within FIT_CONE of the template's (a Fibonacci sphere), then
- *     of FIT_FINE within FIT_STEP of that;
+ *   - the best of the template's own direction and FIT_DIRS directions within FIT_CONE of it (a
+ *     Fibonacci sphere), then of FIT_FINE within FIT_STEP of that;
  *   - a chain's first bone (its start is no bone's end and no pelvis marker: a shoulder) may first
  *     shift its start onto the limb, by the offset of its first point to its loop's centre (at most
  *     FIT_SHIFT x L: a CMU shoulder sits ~10 cm above a T-posed arm);
@@ -424,6 +424,11 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
         done[g] = 1;
         if (h->bone_a[g] == h->root_marker)
             continue;
+        int leaf = 1;
+        for (int o = 0; o < nb; o++)
+            leaf = leaf && h->bone_a[o] != h->bone_b[g];
+        if (leaf && getenv("NOLEAF"))
+            continue;
         float *pa = h->mk_rest + 3 * h->bone_a[g], *pb = h->mk_rest + 3 * h->bone_b[g];
         double d0[3] = {(double)pb[0] - pa[0], (double)pb[1] - pa[1], (double)pb[2] - pa[2]};
         double L = sqrt(d0[0] * d0[0] + d0[1] * d0[1] + d0[2] * d0[2]);
@@ -432,7 +437,7 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
         for (int j = 0; j < 3; j++)
             d0[j] /= L;
         /* the triangles that any candidate's section near q can reach: within 1.6 L of a */
-        double r2 = 2.56 * L * L;
+        double r2 = 2.56 * L * L, off0[3];
         memset(f.inball, 0, (size_t)nf);
         f.nbcell = 0;
         for (int cl = 0; cl < f.ncell; cl++) {
@@ -450,7 +455,10 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
             if (any)
                 f.bcell[f.nbcell++] = cl;
         }
-        double best = INFINITY, bd[3] = {0}, boff[3] = {0}, off[3];
+        /* the template's own direction first: an aligned template stays as it is unless a
+         * direction is better by more than the sampling's grain */
+        double best = dir_cost(&f, pa, L, d0, d0, cone, chain_start[h->bone_a[g]], off0);
+        double bd[3] = {d0[0], d0[1], d0[2]}, boff[3] = {off0[0], off0[1], off0[2]}, off[3];
         for (int i = 0; i < FIT_DIRS; i++) {
             double cost = dir_cost(&f, pa, L, dirs + 3 * i, d0, cone, chain_start[h->bone_a[g]], off);
             if (cost < best) {

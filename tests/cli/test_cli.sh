@@ -138,6 +138,27 @@ if [ -f "$human" ] && [ -f "$data/mocap/bvh/cmu/131_03.bvh" ]; then
             -o "${MESHSTEER_BUILD:-$dir}/human-$take-contact-sheet.png"
         echo "human $take: jitter $jo (input $ji), box from $lo"
     done
+    # hand-placed correspondences (--correspondences FILE, docs/FORMATS.md): one triangle each on
+    # the left thigh and upper arm, completed by their cross-sections; the other bones stay
+    # automatic (8 each). The contact sheet colours every bone's triangles.
+    bvh="$data/mocap/bvh/cmu/131_03.bvh"
+    expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-cmu-harmonic.json" \
+        --template "$bvh" --correspondences "$src/tests/data/harmonic/human_corr.json" -o "$dir/hc.msm"
+    expect_status 0 "$ms" inspect "$dir/hc.msm"
+    for b in "LeftHip -> LeftKnee" "LeftShoulder -> LeftElbow"; do
+        n=$(grep "$b" "$dir/out" | sed -n 's/.*: \([0-9]*\) triangles/\1/p')
+        [ -n "$n" ] && [ "$n" -gt 8 ] || fail "--correspondences FILE: $b has '$n' triangles, no cross-section"
+        echo "correspondences file: $b: $n triangles"
+    done
+    grep -q "RightHip -> RightKnee, twist LeftHip: 8 triangles" "$dir/out" ||
+        fail "--correspondences FILE: a bone the file does not name is not automatic"
+    expect_status 2 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-cmu-harmonic.json" \
+        --template "$bvh" --correspondences "$src/tests/data/harmonic/corr_bad_bone.json" -o "$dir/bad.msm"
+    grep -q 'corr_bad_bone.json: correspondences\[0\].bone: \["LeftHip", "Nowhere"\] is no limb' "$dir/err" ||
+        fail "--correspondences FILE: an unknown bone is not named: $(cat "$dir/err")"
+    expect_status 0 "$ms" render --mesh "$human" --model "$dir/hc.msm" --frames 0 --cols 1 --size 640 \
+        -o "${MESHSTEER_BUILD:-$dir}/human-correspondences.png"
+    expect_status 2 "$ms" render --mesh "$human" --model "$dir/human.pc2" -o "$dir/x.png"
 fi
 
 # issue 4's acceptance: markers from the test camera's depth of the samba dancer (2.5 m, facing)

@@ -122,6 +122,7 @@ static void run_take(const mdl_mesh *target, const mdl_rig *rig, const char *tak
     mdl_harmonic_opts o;
     mdl_harmonic_opts_default(&o);
     o.template_motion = mk;
+    o.fit_rest = 1;
     mdl_model *m = NULL;
     ASSERT_OK(mdl_harmonic_build(target, rig, rest, &o, &m, err), err);
     const struct mdl_harmonic *h = mdl__model_kind(m, MDL_KIND_HARMONIC)->impl;
@@ -160,8 +161,16 @@ static void run_take(const mdl_mesh *target, const mdl_rig *rig, const char *tak
                 foot = fmin(foot, h->align_scale * P[3 * j + 1] + h->align_t[1]);
         ASSERT(isfinite(foot));
         double gap = fabs(lo - foot);
-        if (getenv("HUMAN_DEBUG"))
-            fprintf(stderr, "%d lo %.4f foot %.4f\n", f, lo, foot);
+        if (getenv("HUMAN_DEBUG")) {
+            int jl = 0, vl = 0;
+            for (int j = 1; j < mk->count; j++)
+                jl = P[3 * j + 1] < P[3 * jl + 1] ? j : jl;
+            for (int v = 1; v < nv; v++)
+                vl = V[3 * v + 1] < V[3 * vl + 1] ? v : vl;
+            fprintf(stderr, "%d lo %.4f foot %.4f lowest marker %s %.4f, lowest vertex %d at %.3f %.3f\n",
+                    f, lo, foot, mk->names[jl], h->align_scale * P[3 * jl + 1] + h->align_t[1], vl,
+                    V[3 * vl], V[3 * vl + 2]);
+        }
         gap_sum += gap;
         if (gap > gap_max)
             gap_max = gap, gap_at = f;
