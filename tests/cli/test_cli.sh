@@ -138,12 +138,24 @@ if [ -f "$human" ] && [ -f "$data/mocap/bvh/cmu/131_03.bvh" ]; then
             -o "${MESHSTEER_BUILD:-$dir}/human-$take-contact-sheet.png"
         echo "human $take: jitter $jo (input $ji), box from $lo"
     done
-    # hand-placed correspondences (--correspondences FILE, docs/FORMATS.md): one triangle each on
-    # the left thigh and upper arm, completed by their cross-sections; the other bones stay
-    # automatic (8 each). The contact sheet colours every bone's triangles.
+    # the hop again with the template's rest pose fitted to the T-posed man (--fit-rest, opt-in:
+    # docs/MODEL.md), for its contact sheet; test_human.c checks its feet
     bvh="$data/mocap/bvh/cmu/131_03.bvh"
     expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-cmu-harmonic.json" \
-        --template "$bvh" --correspondences "$src/tests/data/harmonic/human_corr.json" -o "$dir/hc.msm"
+        --template "$bvh" --fit-rest -o "$dir/hf.msm"
+    expect_status 0 "$ms" synth --model "$dir/hf.msm" --markers "$bvh" -o "$dir/hf.pc2" --json
+    [ "$(json_num "$dir/out" nonfinite)" = "0" ] || fail "human 131_03 --fit-rest: non-finite values"
+    expect_status 0 "$ms" render --mesh "$dir/hf.pc2" --rest "$human" --frames "0:1102:92" \
+        -o "${MESHSTEER_BUILD:-$dir}/human-131_03-fit-rest-contact-sheet.png"
+    # hand-placed correspondences (--correspondences FILE, docs/FORMATS.md): one triangle each on
+    # the left thigh and upper arm, completed by their cross-sections (normal to the bone: with the
+    # rest fit the T-posed arm's bone lies along it, without it the hanging template arm cuts a
+    # strip along the arm); the other bones stay automatic (8 each). The contact sheet colours
+    # every bone's triangles.
+    bvh="$data/mocap/bvh/cmu/131_03.bvh"
+    expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-cmu-harmonic.json" \
+        --template "$bvh" --fit-rest --correspondences "$src/tests/data/harmonic/human_corr.json" \
+        -o "$dir/hc.msm"
     expect_status 0 "$ms" inspect "$dir/hc.msm"
     for b in "LeftHip -> LeftKnee" "LeftShoulder -> LeftElbow"; do
         n=$(grep "$b" "$dir/out" | sed -n 's/.*: \([0-9]*\) triangles/\1/p')
