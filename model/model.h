@@ -275,6 +275,10 @@ typedef struct mdl_harmonic_opts {
     int per_bone;         /* with a rig: automatic correspondence triangles per bone (Sec. 4.2) */
     const int *given_off; /* with a rig, may be NULL: per bone (rig limb) user triangles, */
     const int *given_idx; /*   given_idx[given_off[b] .. given_off[b+1]), completed by cross-section */
+    int fit_rest;         /* with a rig: 1 poses each bone below the root onto the target's limb
+                             it lies in before correspondences are chosen (rest_fit.c: a mocap
+                             rest pose is not the scan's T-pose); 0 (default) keeps the template's
+                             rest directions (docs/MODEL.md: why it is not the default yet) */
     const char *name;     /* model name */
     const mdl_markers *template_motion; /* may be NULL: the template's motion (a BVH's frames, as
                              synthesis will see them); its lowest marker over all frames is the
@@ -282,6 +286,20 @@ typedef struct mdl_harmonic_opts {
 } mdl_harmonic_opts;
 
 void mdl_harmonic_opts_default(mdl_harmonic_opts *o);
+
+/* A harmonic model's correspondence triangles (n of them) and the group (template bone, or auto:K
+ * patch) of each, borrowed from the model. Returns -EINVAL (and n = 0) for a model without the
+ * harmonic kind. */
+int mdl_harmonic_correspondences(const mdl_model *m, const int **tri, const int **group, int *n,
+                                 int *ngroups);
+
+/* The correspondences file (formats/corr.c, docs/FORMATS.md): per rig limb ([from, to] marker
+ * names) target triangles in 0..nf-1. Out: off (rig->nlimbs + 1) and idx as given_off and
+ * given_idx of mdl_harmonic_opts; the caller frees both. Bad input: MDL_EFORMAT naming the file and
+ * the JSON path. */
+int mdl_corr_parse(const char *buf, size_t len, const char *name, const mdl_rig *rig, int nf,
+                   int **off, int **idx, char *err);
+int mdl_corr_read(const char *path, const mdl_rig *rig, int nf, int **off, int **idx, char *err);
 
 /* Builds a harmonic model over `target`. With o->auto_k > 0, rig and template_rest may be NULL.
  * Otherwise the rig's limbs are the template's bones ([from, to] or [from, to, twist] marker

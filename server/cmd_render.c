@@ -20,7 +20,8 @@ static void render_usage(FILE *f)
 {
     fprintf(f,
             "usage: meshsteer render --mesh PATH [--rest REST.obj] [--frames SPEC] [--cols N]\n"
-            "                        [--size PX] [--markers FILE] [--skin SKIN.msm] -o SHEET.png\n\n"
+            "                        [--size PX] [--markers FILE] [--skin SKIN.msm] [--model MODEL]\n"
+            "                        -o SHEET.png\n\n"
             "Draws a contact sheet of shaded frames of a mesh sequence.\n\n"
             "  --mesh PATH      a directory of numbered OBJ frames, or a .pc2 point cache\n"
             "  --rest REST.obj  topology for a .pc2 cache\n"
@@ -32,6 +33,8 @@ static void render_usage(FILE *f)
             "  --skin SKIN.msm  colour by the bones of the skin in this model file (meshsteer skin;\n"
             "                   same vertices as the mesh): each bone its own colour, each vertex\n"
             "                   the weight blend of its bones' colours\n"
+            "  --model MODEL    a harmonic model of this mesh: its correspondence triangles drawn\n"
+            "                   in one colour per group (template bone)\n"
             "  -o SHEET.png     output image\n",
             DEFAULT_FRAMES);
 }
@@ -63,10 +66,19 @@ static int skin_colours(const char *path, int nv, uint8_t **out)
     return status;
 }
 
+/* group g's colour for --model: the bone colours of --skin (one scheme for both sheets) */
+static void group_colour(int g, uint8_t c[3])
+{
+    float rgb[3];
+    srv_bone_colour(g, rgb);
+    for (int k = 0; k < 3; k++)
+        c[k] = (uint8_t)(255.0f * rgb[k] + 0.5f);
+}
+
 int cmd_render(int argc, char **argv)
 {
     const char *mesh = NULL, *rest = NULL, *spec = NULL, *markers_path = NULL, *out = NULL,
-               *skin_path = NULL;
+               *skin_path = NULL, *model_path = NULL;
     int cols = 4, size = 256;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -87,6 +99,8 @@ int cmd_render(int argc, char **argv)
             markers_path = v;
         else if (!strcmp(a, "--skin"))
             skin_path = v;
+        else if (!strcmp(a, "--model"))
+            model_path = v;
         else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
             out = v;
         else if (!strcmp(a, "--cols")) {
@@ -112,8 +126,11 @@ int cmd_render(int argc, char **argv)
     mdl_meshseq *seq = NULL;
     mdl_markers *mk = NULL;
     srv_raster *r = NULL;
+    mdl_model *model = NULL;
     int *idx = NULL, n = 0;
     uint8_t *vertex_rgb = NULL;
+    uint32_t *cf = NULL; /* --model: the correspondence triangles, ordered by group */
+    int *goff = NULL, ngroups = 0;
 
     if ((rc = mdl_meshseq_read(mesh, rest, &seq, err)) != 0) {
         status = cli_fail(CMD, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);
@@ -152,6 +169,38 @@ int cmd_render(int argc, char **argv)
         }
     }
 
+    if (model_path) {
+        const int *ct, *cg;
+        int nc;
+        if ((rc = mdl_model_load(model_path, &model, err)) != 0 ||
+            (rc = mdl_harmonic_correspondences(model, &ct, &cg, &nc, &ngroups)) != 0) {
+            status = cli_fail(CMD, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s",
+                              err[0] ? err : "--model: not a harmonic model");
+            goto done;
+        }
+        cf = malloc(3 * (size_t)nc * sizeof *cf + 1);
+        goff = calloc((size_t)ngroups + 1, sizeof *goff);
+        if (!cf || !goff) {
+            status = cli_fail(CMD, CLI_EXIT_FAIL, "out of memory");
+            goto done;
+        }
+        for (int k = 0; k < nc; k++)
+            goff[cg[k] + 1]++;
+        for (int g = 0; g < ngroups; g++)
+            goff[g + 1] += goff[g];
+        for (int k = 0, *at = goff; k < nc; k++) {
+            if (ct[k] >= seq->nf) {
+                status = cli_usage_error(CMD, "--model %s: triangle %d is not in --mesh (%d "
+                                         "triangles)", model_path, ct[k], seq->nf);
+                goto done;
+            }
+            memcpy(cf + 3 * (size_t)at[cg[k]]++, seq->F + 3 * (size_t)ct[k], 3 * sizeof *cf);
+        }
+        for (int g = ngroups; g > 0; g--)
+            goff[g] = goff[g - 1];
+        goff[0] = 0;
+    }
+
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int i = 0; i < n; i++)
         srv_bbox_extend(lo, hi, seq->V + (size_t)idx[i] * seq->nv * 3, seq->nv);
@@ -171,6 +220,16 @@ int cmd_render(int argc, char **argv)
     int scale = size >= 192 ? 2 : 1;
     for (int i = 0; i < n; i++) {
         const float *V = seq->V + (size_t)idx[i] * seq->nv * 3;
+        /* correspondences first: the body's same triangles then fail the strict depth test */
+        for (int g = 0; g < ngroups; g++) {
+            uint8_t col[3];
+            group_colour(g, col);
+            if ((rc = srv_raster_draw_mesh(r, i, &cam, V, seq->nv, cf + 3 * (size_t)goff[g],
+                                           goff[g + 1] - goff[g], col, err)) != 0) {
+                status = cli_fail(CMD, CLI_EXIT_FAIL, "%s", err);
+                goto done;
+            }
+        }
         rc = vertex_rgb ? srv_raster_draw_mesh_coloured(r, i, &cam, V, seq->nv, seq->F, seq->nf,
                                                         vertex_rgb, err)
                         : srv_raster_draw_mesh(r, i, &cam, V, seq->nv, seq->F, seq->nf, body, err);
@@ -194,6 +253,9 @@ int cmd_render(int argc, char **argv)
 done:
     free(vertex_rgb);
     free(idx);
+    free(cf);
+    free(goff);
+    mdl_model_destroy(model);
     srv_raster_destroy(r);
     mdl_markers_destroy(mk);
     mdl_meshseq_destroy(seq);

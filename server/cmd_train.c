@@ -12,7 +12,7 @@
 static const char usage_text[] =
     "usage: meshsteer train --mesh PATH --rig RIG.json -o MODEL [options]\n"
     "       meshsteer train --kind harmonic --mesh TARGET [--rig RIG.json --template FILE]\n"
-    "                       [--correspondences auto|auto:K|rings:K] -o MODEL\n"
+    "                       [--correspondences auto|auto:K|rings:K|FILE] [--fit-rest] -o MODEL\n"
     "\n"
     "Learns the part-based pose and shape model (Voegele et al. 2012) from an example animation.\n"
     "\n"
@@ -52,12 +52,16 @@ static const char usage_text[] =
     "                     names, reference[0] the root (docs/MODEL.md); not needed with auto:K\n"
     "  --template FILE    the template's rest pose: a BVH's or ASF/AMC's rest pose (all rotations\n"
     "                     zero), or frame 0 of another marker file\n"
-    "  --correspondences auto|auto:K|rings:K\n"
+    "  --correspondences auto|auto:K|rings:K|FILE\n"
     "                     auto (default with a rig): --per-bone triangles along every bone;\n"
+    "                     FILE: a JSON file of target triangles per rig limb, each completed by\n"
+    "                     its cross-section; bones it does not name stay auto (docs/FORMATS.md)\n"
     "                     auto:K: K triangles spread over the mesh, no template (for eval)\n"
     "                     rings:K: as auto:K, each grown to a ring across the local principal\n"
     "                     axis (a limb's cross-section) instead of a patch\n"
-    "  --per-bone N       automatic correspondence triangles per bone (default 8)\n" CLI_MARKER_OPTS_HELP;
+    "  --per-bone N       automatic correspondence triangles per bone (default 8)\n"
+    "  --fit-rest         pose the template's rest skeleton onto the target's limbs first (a\n"
+    "                     mocap rest pose vs a T-posed scan; docs/MODEL.md)\n" CLI_MARKER_OPTS_HELP;
 
 static int write_report(const char *cmd, const mdl_model *model, const char *report)
 {
@@ -73,7 +77,7 @@ static int write_report(const char *cmd, const mdl_model *model, const char *rep
 
 /* --kind harmonic: de Aguiar et al. 2007, built from the first frame of --mesh (model.h) */
 static int train_harmonic(const char *mesh, const char *rest, const char *rigp, const char *tmpl,
-                          const char *corr, int per_bone, const mdl_marker_opts *mo,
+                          const char *corr, int per_bone, int fit_rest, const mdl_marker_opts *mo,
                           const char *outp, const char *report, const char *name)
 {
     const char *cmd = "train";
@@ -82,16 +86,15 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
     mdl_harmonic_opts o;
     mdl_harmonic_opts_default(&o);
     o.per_bone = per_bone;
+    o.fit_rest = fit_rest;
     o.name = name;
     if (corr && (strncmp(corr, "auto:", 5) == 0 || strncmp(corr, "rings:", 6) == 0)) {
         o.rings = corr[0] == 'r';
         if (cli_parse_int(cmd, "--correspondences auto:K", corr + 5 + o.rings, &o.auto_k) ||
             o.auto_k < 1)
             return cli_usage_error(cmd, "--correspondences: '%s': K must be a positive integer", corr);
-    } else if (corr && strcmp(corr, "auto") != 0) {
-        return cli_usage_error(cmd, "--correspondences: '%s': expected auto or auto:K (a file of "
-                               "hand-placed triangles is not supported yet)", corr);
     }
+    const char *corr_file = corr && o.auto_k == 0 && strcmp(corr, "auto") != 0 ? corr : NULL;
     if (o.auto_k == 0 && (!rigp || !tmpl))
         return cli_usage_error(cmd, "--kind harmonic needs --rig and --template, or "
                                "--correspondences auto:K");
@@ -103,6 +106,7 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
     mdl_rig *rig = NULL;
     mdl_markers *tm = NULL, *tmotion = NULL;
     mdl_model *model = NULL;
+    int *goff = NULL, *gidx = NULL; /* --correspondences FILE */
     if (mdl_meshseq_read(mesh, rest, &seq, err) || (rigp && mdl_rig_read(rigp, 0, &rig, err))) {
         cli_fail(cmd, status, "%s", err);
         goto out;
@@ -124,6 +128,14 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
         }
         o.template_motion = tmotion;
     }
+    if (corr_file) {
+        if (mdl_corr_read(corr_file, rig, seq->nf, &goff, &gidx, err)) {
+            cli_fail(cmd, status, "%s", err);
+            goto out;
+        }
+        o.given_off = goff;
+        o.given_idx = gidx;
+    }
     mdl_mesh target = {.nv = seq->nv, .nf = seq->nf, .V = seq->V, .F = seq->F};
     int r = mdl_harmonic_build(&target, o.auto_k ? NULL : rig, tm, &o, &model, err);
     if (r) {
@@ -142,6 +154,8 @@ static int train_harmonic(const char *mesh, const char *rest, const char *rigp, 
             info.nv, info.nmarkers);
     status = CLI_EXIT_OK;
 out:
+    free(goff);
+    free(gidx);
     mdl_model_destroy(model);
     mdl_markers_destroy(tm);
     mdl_markers_destroy(tmotion);
@@ -155,13 +169,14 @@ int cmd_train(int argc, char **argv)
     const char *cmd = "train", *mesh = NULL, *rest = NULL, *rigp = NULL, *mk = NULL,
                *frames = NULL, *outp = NULL, *report = NULL, *name = NULL, *kind = "steer",
                *tmpl = NULL, *corr = NULL;
-    int per_bone = 8;
+    int per_bone = 8, fit_rest = 0;
     mdl_train_opts o;
     mdl_train_opts_default(&o);
     mdl_marker_opts mo = {0, MDL_UP_AUTO, 0};
     enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
            O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP, O_LINEAR,
-           O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF, O_TNOISE, O_KIND, O_TEMPLATE, O_CORR, O_PERBONE };
+           O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF, O_TNOISE, O_KIND, O_TEMPLATE, O_CORR, O_PERBONE,
+           O_FITREST };
     double tnoise_mm = 0;
     static const struct option lo[] = {
         {"mesh", 1, 0, 'm'},          {"rest", 1, 0, O_REST},         {"rig", 1, 0, O_RIG},
@@ -174,7 +189,7 @@ int cmd_train(int argc, char **argv)
         {"linear", 0, 0, O_LINEAR},   {"marker-weight", 1, 0, O_MWEIGHT}, {"relax", 1, 0, O_RELAX},
         {"align-samples", 1, 0, O_SAMPLES}, {"rbf", 0, 0, O_RBF}, {"train-noise", 1, 0, O_TNOISE},
         {"kind", 1, 0, O_KIND}, {"template", 1, 0, O_TEMPLATE}, {"correspondences", 1, 0, O_CORR},
-        {"per-bone", 1, 0, O_PERBONE}, {0, 0, 0, 0}};
+        {"per-bone", 1, 0, O_PERBONE}, {"fit-rest", 0, 0, O_FITREST}, {0, 0, 0, 0}};
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "m:o:h", lo, NULL)) != -1) {
@@ -212,6 +227,7 @@ int cmd_train(int argc, char **argv)
         case O_TEMPLATE: tmpl = optarg; break;
         case O_CORR: corr = optarg; break;
         case O_PERBONE: if (cli_parse_int(cmd, "--per-bone", optarg, &per_bone)) return CLI_EXIT_USAGE; break;
+        case O_FITREST: fit_rest = 1; break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
         default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
         }
@@ -223,7 +239,8 @@ int cmd_train(int argc, char **argv)
             const char *slash = outp ? strrchr(outp, '/') : NULL;
             name = slash ? slash + 1 : outp;
         }
-        return train_harmonic(mesh, rest, rigp, tmpl, corr, per_bone, &mo, outp, report, name);
+        return train_harmonic(mesh, rest, rigp, tmpl, corr, per_bone, fit_rest, &mo, outp, report,
+                              name);
     }
     if (strcmp(kind, "steer") != 0)
         return cli_usage_error(cmd, "--kind: '%s' is not steer or harmonic", kind);

@@ -36,6 +36,8 @@ window.meshsteer = stats;
 // the newest decoded markers (model marker order) and their live labels, for tests
 window.meshsteerMarkers = () => ({ xyz: Array.from(decoded.markers || []), valid: Array.from(decoded.valid || []),
                                    live: stats.live });
+// the newest decoded vertex positions (nv x 3), for tests
+window.meshsteerVertices = () => Array.from(decoded.V || []);
 
 const el = id => document.getElementById(id);
 

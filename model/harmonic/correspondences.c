@@ -21,6 +21,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#ifndef CORR_T0
+#define CORR_T0 0.2 /* a bone's automatic triangles lie within CORR_T0 .. 1 - CORR_T0 of it */
+#endif
 #ifndef AUTO_PATCH
 #define AUTO_PATCH 0.45
 #endif
@@ -361,7 +364,7 @@ int mdl__corr_bones(struct mdl_harmonic *h, const float *rest, const uint32_t *F
             continue;
         }
         for (int t = 0; t < nf; t++)
-            if (near[t] == g && tpar[t] >= 0.2 && tpar[t] <= 0.8 && !used[t])
+            if (near[t] == g && tpar[t] >= CORR_T0 && tpar[t] <= 1 - CORR_T0 && !used[t])
                 cand[np++] = t;
         if (np == 0 || per_bone < 1)
             continue;

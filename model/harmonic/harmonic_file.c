@@ -158,6 +158,11 @@ int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_mar
                 h->root_bone = b;
         if ((rc = align_template(h, target, rig, template_rest, o->template_motion, err)))
             goto fail;
+        /* the template's rest pose onto the target's (rest_fit.c), before the correspondences */
+        int kept = 0;
+        if (o->fit_rest &&
+            (rc = mdl__rest_fit(h, target->V, target->F, target->nv, target->nf, &kept, err)))
+            goto fail;
         /* the model's rig: each marker at the target vertex nearest its aligned joint */
         for (int i = 0; i < h->nmk; i++) {
             double best = INFINITY;
@@ -196,6 +201,22 @@ fail:
     mdl_rig_destroy(mrig);
     mdl__harmonic_free(h);
     return rc;
+}
+
+int mdl_harmonic_correspondences(const mdl_model *m, const int **tri, const int **group, int *n,
+                                 int *ngroups)
+{
+    const mdl_kind_slot *k = m ? mdl__model_kind(m, MDL_KIND_HARMONIC) : NULL;
+    *tri = *group = NULL;
+    *n = *ngroups = 0;
+    if (!k)
+        return -EINVAL;
+    const struct mdl_harmonic *h = k->impl;
+    *tri = h->corr_tri;
+    *group = h->corr_group;
+    *n = h->ncorr;
+    *ngroups = h->ngroups;
+    return 0;
 }
 
 /* ------------------------------------------------------------------ the chunk */

@@ -151,6 +151,11 @@ int mdl__corr_auto_k(struct mdl_harmonic *h, const float *rest, const uint32_t *
  * normal to the bone, same nearest bone). */
 int mdl__corr_bones(struct mdl_harmonic *h, const float *rest, const uint32_t *F, int nf,
                     int per_bone, const int *given_off, const int *given_idx, char *err);
+/* rest_fit.c: poses h->mk_rest (the aligned template rest) to the target's rest pose V: each bone
+ * below the root turned onto the axis of the target's limb it lies in. kept: the bones that found no
+ * limb and kept their direction. Allocates. */
+int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int nv, int nf,
+                  int *kept, char *err);
 /* For each triangle the correspondence geodesically nearest to it (Dijkstra on the edge graph from
  * the correspondences' vertices): near (nf), an index into corr_tri. */
 int mdl__corr_nearest(const struct mdl_harmonic *h, const float *rest, const uint32_t *F, int nf,

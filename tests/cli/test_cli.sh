@@ -138,6 +138,39 @@ if [ -f "$human" ] && [ -f "$data/mocap/bvh/cmu/131_03.bvh" ]; then
             -o "${MESHSTEER_BUILD:-$dir}/human-$take-contact-sheet.png"
         echo "human $take: jitter $jo (input $ji), box from $lo"
     done
+    # the hop again with the template's rest pose fitted to the T-posed man (--fit-rest, opt-in:
+    # docs/MODEL.md), for its contact sheet; test_human.c checks its feet
+    bvh="$data/mocap/bvh/cmu/131_03.bvh"
+    expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-cmu-harmonic.json" \
+        --template "$bvh" --fit-rest -o "$dir/hf.msm"
+    expect_status 0 "$ms" synth --model "$dir/hf.msm" --markers "$bvh" -o "$dir/hf.pc2" --json
+    [ "$(json_num "$dir/out" nonfinite)" = "0" ] || fail "human 131_03 --fit-rest: non-finite values"
+    expect_status 0 "$ms" render --mesh "$dir/hf.pc2" --rest "$human" --frames "0:1102:92" \
+        -o "${MESHSTEER_BUILD:-$dir}/human-131_03-fit-rest-contact-sheet.png"
+    # hand-placed correspondences (--correspondences FILE, docs/FORMATS.md): one triangle each on
+    # the left thigh and upper arm, completed by their cross-sections (normal to the bone: with the
+    # rest fit the T-posed arm's bone lies along it, without it the hanging template arm cuts a
+    # strip along the arm); the other bones stay automatic (8 each). The contact sheet colours
+    # every bone's triangles.
+    bvh="$data/mocap/bvh/cmu/131_03.bvh"
+    expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-cmu-harmonic.json" \
+        --template "$bvh" --fit-rest --correspondences "$src/tests/data/harmonic/human_corr.json" \
+        -o "$dir/hc.msm"
+    expect_status 0 "$ms" inspect "$dir/hc.msm"
+    for b in "LeftHip -> LeftKnee" "LeftShoulder -> LeftElbow"; do
+        n=$(grep "$b" "$dir/out" | sed -n 's/.*: \([0-9]*\) triangles/\1/p')
+        [ -n "$n" ] && [ "$n" -gt 8 ] || fail "--correspondences FILE: $b has '$n' triangles, no cross-section"
+        echo "correspondences file: $b: $n triangles"
+    done
+    grep -q "RightHip -> RightKnee, twist LeftHip: 8 triangles" "$dir/out" ||
+        fail "--correspondences FILE: a bone the file does not name is not automatic"
+    expect_status 2 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-cmu-harmonic.json" \
+        --template "$bvh" --correspondences "$src/tests/data/harmonic/corr_bad_bone.json" -o "$dir/bad.msm"
+    grep -q 'corr_bad_bone.json: correspondences\[0\].bone: \["LeftHip", "Nowhere"\] is no limb' "$dir/err" ||
+        fail "--correspondences FILE: an unknown bone is not named: $(cat "$dir/err")"
+    expect_status 0 "$ms" render --mesh "$human" --model "$dir/hc.msm" --frames 0 --cols 1 --size 640 \
+        -o "${MESHSTEER_BUILD:-$dir}/human-correspondences.png"
+    expect_status 2 "$ms" render --mesh "$human" --model "$dir/human.pc2" -o "$dir/x.png"
 fi
 
 # issue 4's acceptance: markers from the test camera's depth of the samba dancer (2.5 m, facing)

@@ -56,6 +56,7 @@ seeds_of() {
     obj) local_seeds=(tests/data/poly.obj); globs=('*.obj') ;;
     pc2) local_seeds=(tests/data/tiny.pc2); globs=('*.pc2') ;;
     rig) local_seeds=(tests/data/rig_quadruped.json rigs/*.json) ;;
+    corr) local_seeds=(tests/data/harmonic/corr_*.json) ;;
     c3d) globs=('*.c3d') ;;
     trc) globs=('*.trc') ;;
     bvh) local_seeds=(tests/data/markers/*.bvh); globs=('*.bvh') ;;

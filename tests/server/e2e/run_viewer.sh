@@ -4,6 +4,10 @@
 # including a daemon restart on the same port to check that the viewer reconnects by itself.
 # Usage: run_viewer.sh MESHSTEERD MAKE_MODEL SCREENSHOT.png        Exit 77 = skipped.
 #        run_viewer.sh MESHSTEERD demo:MESHSTEER SCREENSHOT.png
+#        run_viewer.sh MESHSTEERD harmonic:MESHSTEER SCREENSHOT.png
+# The harmonic form (issue 9): the static human built as a harmonic model from the CMU rig and
+# 131_03.bvh, streamed by meshsteerd replaying that BVH in a loop (skips without ../shared/data);
+# viewer.mjs then checks frames, changing vertices and no NaN, and saves the screenshot.
 # The demo form does what `scripts/run.sh demo` does: `meshsteer demo --out DIR`, then meshsteerd
 # on DIR/model.msm replaying DIR/trot.csv with no --web-root (the viewer it finds by itself).
 set -euo pipefail
@@ -23,7 +27,19 @@ cleanup() {
 }
 trap cleanup EXIT
 webarg="--web-root \"$web\""
+source_file=$dir/trot.csv
 case "$make_model" in
+harmonic:*)
+    data=${MESHSTEER_DATA:-$here/../../../../shared/data}
+    src=${MESHSTEER_SRC:-$here/../../..}
+    source_file=$data/mocap/bvh/cmu/131_03.bvh
+    [ -f "$source_file" ] && [ -f "$data/meshes/static-human/human_man.obj" ] ||
+        { echo "skip: no static-human or 131_03.bvh in $data"; exit 77; }
+    "${make_model#harmonic:}" train --kind harmonic --mesh "$data/meshes/static-human/human_man.obj" \
+        --rig "$src/rigs/human-cmu-harmonic.json" --template "$source_file" -o "$dir/example.msm" \
+        2>"$dir/train.txt"
+    export MESHSTEER_KIND=harmonic
+    ;;
 demo:*)
     "${make_model#demo:}" demo --out "$dir" >"$dir/demo.txt"
     cp "$dir/model.msm" "$dir/example.msm"
@@ -38,7 +54,7 @@ esac
 cat >"$dir/start.sh" <<EOS
 #!/usr/bin/env bash
 : >"$dir/log.\$\$"
-"$meshsteerd" --model "$dir/example.msm" --source "replay:$dir/trot.csv?loop=1" \
+"$meshsteerd" --model "$dir/example.msm" --source "replay:$source_file?loop=1" \
     --listen 127.0.0.1:\$1 $webarg 2>"$dir/log.\$\$" </dev/null >/dev/null &
 echo \$! >"$dir/pid"
 for i in \$(seq 100); do
@@ -54,5 +70,5 @@ port=$("$dir/start.sh" 0)
 # the restart keeps the port, as a systemd restart would
 export MESHSTEER_RESTART_CMD="kill \$(cat '$dir/pid'); sleep 1; '$dir/start.sh' $port >/dev/null"
 export MESHSTEER_WEB_DIR=$web
-export MESHSTEER_MARKERS=$dir/trot.csv  # what the source replays (the playback checks match it)
+export MESHSTEER_MARKERS=$source_file  # what the source replays (the playback checks match it)
 node "$here/viewer.mjs" "http://127.0.0.1:$port/" "$shot"

@@ -7,6 +7,11 @@
 // buttons, saving a screenshot of each state beside SCREENSHOT (SCREENSHOT-<state>.png); then
 // restarts nothing but the daemon and checks that the viewer reconnects by itself.
 //
+// With MESHSTEER_KIND=harmonic (a harmonic model replaying a BVH, run_viewer.sh harmonic:...): the
+// stream checks, the model kind, vertices that change between two samples 1 s apart and are all
+// finite, the canvas and the screenshot; the playback checks (they match CSV rows) and the restart
+// are the steering run's.
+//
 // Usage: node viewer.mjs URL SCREENSHOT.png     (exit 77 = skip when chromium or playwright is absent)
 import { existsSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
@@ -218,13 +223,28 @@ try {
   });
   check(px.differ > 0.02 && px.colours > 20,
         `canvas not blank: ${(100 * px.differ).toFixed(1)}% of pixels are not background, ${px.colours} shades`);
+  if (process.env.MESHSTEER_KIND === 'harmonic') {
+    check(s.kind === 'harmonic', `model kind '${s.kind}'`);
+    const v0 = await page.evaluate(() => window.meshsteerVertices());
+    await page.waitForTimeout(1000);
+    const v1 = await page.evaluate(() => window.meshsteerVertices());
+    const bad = v1.filter(x => !Number.isFinite(x)).length + v0.filter(x => !Number.isFinite(x)).length;
+    let moved = 0;
+    for (let i = 0; i < v1.length; i += 3)
+      if (Math.hypot(v1[i] - v0[i], v1[i + 1] - v0[i + 1], v1[i + 2] - v0[i + 2]) > 1e-3) moved++;
+    check(v1.length === 3 * s.nv && bad === 0, `${v1.length / 3} vertices, ${bad} not finite`);
+    check(moved > s.nv / 10, `${moved} of ${s.nv} vertices moved by more than 1 mm in 1 s`);
+    await page.screenshot({ path: shot });
+    console.log(`screenshot: ${shot}`);
+  } else {
   // colour by part, then the screenshot
   await page.click('#c-parts');
   await page.waitForTimeout(300);
   await page.screenshot({ path: shot });
   console.log(`screenshot: ${shot}`);
   await playback(page);
-  if (process.env.MESHSTEER_RESTART_CMD) {
+  }
+  if (process.env.MESHSTEER_RESTART_CMD && process.env.MESHSTEER_KIND !== 'harmonic') {
     // reconnect: the harness restarts the daemon; the viewer must come back by itself
     const { execSync } = await import('node:child_process');
     execSync(process.env.MESHSTEER_RESTART_CMD);
