@@ -4,7 +4,8 @@
 # including a daemon restart on the same port to check that the viewer reconnects by itself.
 # Usage: run_viewer.sh MESHSTEERD MAKE_MODEL SCREENSHOT.png        Exit 77 = skipped.
 #        run_viewer.sh MESHSTEERD demo:MESHSTEER SCREENSHOT.png
-# The demo form does what `scripts/run.sh demo` does: `meshsteer demo --out DIR`, then meshsteerd
+# The demo form does what `scripts/run.sh demo` does: `meshsteer demo --out DIR --markers
+# recordings/example-trot.c3d`, then meshsteerd
 # on DIR/model.msm replaying DIR/trot.csv with no --web-root (the viewer it finds by itself).
 set -euo pipefail
 meshsteerd=$1 make_model=$2 shot=$3
@@ -25,7 +26,8 @@ trap cleanup EXIT
 webarg="--web-root \"$web\""
 case "$make_model" in
 demo:*)
-    "${make_model#demo:}" demo --out "$dir" >"$dir/demo.txt"
+    "${make_model#demo:}" demo --out "$dir" --markers "${MESHSTEER_SRC:-$here/../../..}/recordings/example-trot.c3d" \
+        >"$dir/demo.txt"
     cp "$dir/model.msm" "$dir/example.msm"
     webarg=""
     ;;
