@@ -124,6 +124,24 @@ static int read_frames(drv_source *s, int want, int tries, float *xyz, uint8_t *
     return got;
 }
 
+/* Opens an .oni through OpenNI2's C API for OpenNI2's manual playback (one frame per wait), played
+ * once; returns its number of frames. */
+static int open_recording(const char *oni, OniDeviceHandle *dev, OniStreamHandle *str)
+{
+    ASSERT_INT_EQ(oniInitialize(ONI_API_VERSION), ONI_STATUS_OK);
+    ASSERT_INT_EQ(oniDeviceOpen(oni, dev), ONI_STATUS_OK);
+    float speed = -1;
+    OniBool rep = 0;
+    ASSERT_INT_EQ(oniDeviceSetProperty(*dev, ONI_DEVICE_PROPERTY_PLAYBACK_SPEED, &speed, sizeof speed),
+                  ONI_STATUS_OK);
+    ASSERT_INT_EQ(oniDeviceSetProperty(*dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep, sizeof rep),
+                  ONI_STATUS_OK);
+    ASSERT_INT_EQ(oniDeviceCreateStream(*dev, ONI_SENSOR_DEPTH, str), ONI_STATUS_OK);
+    int n = 0, sz = sizeof n;
+    ASSERT_INT_EQ(oniStreamGetProperty(*str, ONI_STREAM_PROPERTY_NUMBER_OF_FRAMES, &n, &sz), ONI_STATUS_OK);
+    return n;
+}
+
 static char daemon_log[4400];
 
 /* meshsteerd with a model and a source, on 127.0.0.1:port, its output to daemon_log */
@@ -415,19 +433,7 @@ int main(int argc, char **argv)
         ASSERT(want && buf);
         OniDeviceHandle dev;
         OniStreamHandle str;
-        ASSERT_INT_EQ(oniInitialize(ONI_API_VERSION), ONI_STATUS_OK);
-        ASSERT_INT_EQ(oniDeviceOpen(oni, &dev), ONI_STATUS_OK);
-        float speed = -1; /* manual: one frame per wait */
-        OniBool rep = 0;
-        ASSERT_INT_EQ(oniDeviceSetProperty(dev, ONI_DEVICE_PROPERTY_PLAYBACK_SPEED, &speed, sizeof speed),
-                      ONI_STATUS_OK);
-        ASSERT_INT_EQ(oniDeviceSetProperty(dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep, sizeof rep),
-                      ONI_STATUS_OK);
-        ASSERT_INT_EQ(oniDeviceCreateStream(dev, ONI_SENSOR_DEPTH, &str), ONI_STATUS_OK);
-        int nrec = 0, sz = sizeof nrec;
-        ASSERT_INT_EQ(oniStreamGetProperty(str, ONI_STREAM_PROPERTY_NUMBER_OF_FRAMES, &nrec, &sz),
-                      ONI_STATUS_OK);
-        ASSERT_INT_EQ(nrec, 15);
+        ASSERT_INT_EQ(open_recording(oni, &dev, &str), 15);
         ASSERT_INT_EQ(oniStreamStart(str), ONI_STATUS_OK);
         int n = 0;
         uint64_t t0 = 0;
@@ -601,18 +607,7 @@ int main(int argc, char **argv)
         {
             OniDeviceHandle dev;
             OniStreamHandle str;
-            ASSERT_INT_EQ(oniInitialize(ONI_API_VERSION), ONI_STATUS_OK);
-            ASSERT_INT_EQ(oniDeviceOpen(oni, &dev), ONI_STATUS_OK);
-            float speed = -1; /* OpenNI2's manual mode: one frame per wait */
-            OniBool rep = 0;
-            ASSERT_INT_EQ(oniDeviceSetProperty(dev, ONI_DEVICE_PROPERTY_PLAYBACK_SPEED, &speed, sizeof speed),
-                          ONI_STATUS_OK);
-            ASSERT_INT_EQ(oniDeviceSetProperty(dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep, sizeof rep),
-                          ONI_STATUS_OK);
-            ASSERT_INT_EQ(oniDeviceCreateStream(dev, ONI_SENSOR_DEPTH, &str), ONI_STATUS_OK);
-            int sz = sizeof nrec;
-            ASSERT_INT_EQ(oniStreamGetProperty(str, ONI_STREAM_PROPERTY_NUMBER_OF_FRAMES, &nrec, &sz),
-                          ONI_STATUS_OK);
+            nrec = open_recording(oni, &dev, &str);
             printf("recording: %d frames in the file\n", nrec);
             /* the recorder starts on its own thread and may miss the first frame or two */
             ASSERT_INT_GE(nrec, got - 3);
