@@ -189,6 +189,18 @@ void drv_render_world_to_camera(const drv_render *r, const float w[3], float c[3
 void drv_render_place(const float *V, int nv, float yaw, float pivot_x, float pivot_z,
                       const float t[3], float *out);
 
+/* ------------------------------------------------------------------ fakenect dumps (fakenect.c)
+ * The writer of libfreenect's fakenect dump directories (the format: depth/fakenect.h), for
+ * recordings of the test camera that the fakenect: source and libfreenect's fakenect replay. */
+typedef struct drv_fakenect_writer drv_fakenect_writer;
+
+/* Creates DIR (or uses an empty existing one; refuses one that has an INDEX.txt: -EEXIST). */
+int drv_fakenect_writer_open(const char *dir, drv_fakenect_writer **out, char *err);
+/* Writes one 640x480 depth frame given in millimetres (0 = none) at host time `t` seconds. */
+int drv_fakenect_writer_depth(drv_fakenect_writer *w, double t, uint32_t timestamp,
+                              const uint16_t *mm, char *err);
+int drv_fakenect_writer_close(drv_fakenect_writer *w, char *err); /* NULL is fine */
+
 /* ------------------------------------------------------------------ USB (kinect_usb.c)
  * Depth sensors on USB through libusb: which devices are depth sensors, a watcher for their
  * arrival and departure (libusb hotplug, or polling where libusb has no hotplug support), and the

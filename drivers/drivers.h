@@ -161,6 +161,33 @@ int drv_osc_counts_get(const drv_source *s, drv_osc_counts *out);
 /* The bound UDP port, or -EINVAL. */
 int drv_osc_port(const drv_source *s);
 
+/* ---- OSC captures (osc/capture.c; docs/FORMATS.md "OSC capture") ----
+ * A file of timed OSC datagrams: "MSOSCCAP", u32 version 1, u32 count, then per datagram a u64
+ * time (microseconds since the capture's start, non-decreasing), a u32 length (a multiple of 4,
+ * at most DRV_OSC_CAPTURE_MAX_DGRAM) and the datagram's bytes (one OSC 1.0 packet, as sent);
+ * little-endian. `meshsteer osc-play` sends one to a port; the reader checks every datagram
+ * with the packet walker the osc: source uses. */
+#define DRV_OSC_CAPTURE_MAX_DGRAM 65504
+typedef struct drv_osc_capture {
+    int count;       /* datagrams */
+    uint64_t *t_us;  /* count: microseconds since the capture's start, non-decreasing */
+    size_t *off;     /* count: where datagram i starts in data */
+    uint32_t *len;   /* count: its length in bytes */
+    uint8_t *data;   /* the datagrams, one after the other */
+} drv_osc_capture;
+struct mdl_markers;
+/* Reads (or parses buf of len bytes, `name` for messages) a capture into *out; MDL_EFORMAT with
+ * the byte and the reason for a malformed one. Free with drv_osc_capture_destroy (NULL is fine). */
+int drv_osc_capture_read(const char *path, drv_osc_capture **out, char *err);
+int drv_osc_capture_parse(const uint8_t *buf, size_t len, const char *name, drv_osc_capture **out,
+                          char *err);
+int drv_osc_capture_write(const char *path, const drv_osc_capture *c, char *err);
+void drv_osc_capture_destroy(drv_osc_capture *c);
+/* What a sender of the osc: source's address space sends for a marker recording: frame f is one
+ * bundle (time tag 1, "immediately") of "/marker NAME x y z" (float32; metres, Y up as in m) per
+ * marker, "/marker NAME" for an invalid one, at time f / fps. */
+int drv_osc_capture_from_markers(const struct mdl_markers *m, drv_osc_capture **out, char *err);
+
 #ifdef __cplusplus
 }
 #endif

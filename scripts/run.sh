@@ -56,8 +56,9 @@ demo)
     setup_packages
     setup_web
     setup_build build
-    # train on the built-in example and print the quality report, then stream its trot recording
-    build/server/meshsteer demo --out build/demo
+    # train on the built-in example and print the quality report, then stream its trot: the
+    # committed take (recordings/README.md), whose first 60 frames demo writes as trot.csv
+    build/server/meshsteer demo --out build/demo --markers recordings/example-trot.c3d
     port=${MESHSTEER_PORT:-8080}
     echo
     echo "meshsteerd: open http://127.0.0.1:$port/ in a browser (Ctrl-C stops)"

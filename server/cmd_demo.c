@@ -6,13 +6,14 @@
 
 #include <errno.h>
 #include <getopt.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 
 static const char usage_text[] =
-    "usage: meshsteer demo [--out DIR] [--frames N] [--speed S]\n"
+    "usage: meshsteer demo [--out DIR] [--frames N] [--speed S] [--markers FILE]\n"
     "\n"
     "Generates the built-in example (a four-legged creature walking, and a marker recording of\n"
     "it trotting), trains a model on the walk, synthesises the trot from its markers and prints\n"
@@ -22,15 +23,57 @@ static const char usage_text[] =
     "                 (default demo-out); `meshsteerd --model DIR/model.msm --source\n"
     "                 replay:DIR/trot.csv?loop=1` then streams the trot to browsers\n"
     "  --frames N     frames of walk and of trot (default 60)\n"
-    "  --speed S      trot cycle rate relative to the walk (default 1.3)\n";
+    "  --speed S      trot cycle rate relative to the walk (default 1.3)\n"
+    "  --markers FILE drive the model with this recording of the trot (its first N frames)\n"
+    "                 instead of generating it: the committed take recordings/example-trot.c3d\n"
+    "                 (`meshsteer record markers`); refused unless it is the trot at --speed S\n"
+    "                 (every marker within 1 mm of the generated one)\n";
+
+/* Replaces the generated trot *rec by the recording at path (its first rec->frames frames), after
+ * checking that it is that trot: the same labels, every marker within 1 mm (a C3D keeps float
+ * millimetres). The true meshes the demo measures against stay the generated ones. */
+static int use_recording(const char *cmd, const char *path, double speed, mdl_markers **rec)
+{
+    char err[MDL_ERR_LEN] = "";
+    mdl_markers *file = NULL, *gen = *rec;
+    if (mdl_markers_read(path, NULL, &file, err))
+        return cli_fail(cmd, CLI_EXIT_USAGE, "--markers: %s", err);
+    int bad = file->count != gen->count || file->frames < gen->frames;
+    for (int m = 0; !bad && m < gen->count; m++)
+        bad = strcmp(file->names[m], gen->names[m]) != 0;
+    if (bad) {
+        cli_fail(cmd, CLI_EXIT_USAGE, "--markers %s: %d markers, %d frames; the example's trot has "
+                 "%d markers (%s, ...) and needs %d frames", path, file->count, file->frames,
+                 gen->count, gen->names[0], gen->frames);
+        mdl_markers_destroy(file);
+        return CLI_EXIT_USAGE;
+    }
+    for (size_t i = 0; i < (size_t)gen->frames * gen->count; i++) {
+        float d = 0;
+        for (int k = 0; k < 3; k++)
+            d = fmaxf(d, fabsf(file->P[3 * i + k] - gen->P[3 * i + k]));
+        if (!file->valid[i] || d > 1e-3f) {
+            cli_fail(cmd, CLI_EXIT_USAGE, "--markers %s: frame %zu, marker %s is %.4f m from the "
+                     "example's trot at --speed %g: not that recording", path, i / gen->count,
+                     gen->names[i % gen->count], d, speed);
+            mdl_markers_destroy(file);
+            return CLI_EXIT_USAGE;
+        }
+    }
+    file->frames = gen->frames; /* the demo's length; the arrays stay as read */
+    mdl_markers_destroy(gen);
+    *rec = file;
+    return CLI_EXIT_OK;
+}
 
 int cmd_demo(int argc, char **argv)
 {
-    const char *cmd = "demo", *outdir = "demo-out";
+    const char *cmd = "demo", *outdir = "demo-out", *markers = NULL;
     int frames = 60;
     double speed = 1.3;
     static const struct option lo[] = {{"out", 1, 0, 'o'}, {"frames", 1, 0, 'f'},
-                                       {"speed", 1, 0, 's'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+                                       {"speed", 1, 0, 's'}, {"markers", 1, 0, 'm'},
+                                       {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:h", lo, NULL)) != -1) {
@@ -38,6 +81,7 @@ int cmd_demo(int argc, char **argv)
         case 'o': outdir = optarg; break;
         case 'f': if (cli_parse_int(cmd, "--frames", optarg, &frames)) return CLI_EXIT_USAGE; break;
         case 's': if (cli_parse_double(cmd, "--speed", optarg, &speed)) return CLI_EXIT_USAGE; break;
+        case 'm': markers = optarg; break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
         default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
         }
@@ -64,6 +108,9 @@ int cmd_demo(int argc, char **argv)
         cli_fail(cmd, status, "%s", err);
         goto out;
     }
+    if (markers && (status = use_recording(cmd, markers, speed, &rec)) != CLI_EXIT_OK)
+        goto out;
+    status = CLI_EXIT_FAIL;
     /* one sequence holding the walk (training) and the trot's truth (evaluation) */
     both.nv = walk->nv;
     both.nf = walk->nf;

@@ -23,6 +23,9 @@ int cmd_depth_eval(int argc, char **argv);
 int cmd_kinect(int argc, char **argv); /* cmd_kinect.c */
 int cmd_render(int argc, char **argv);
 int cmd_example(int argc, char **argv);
+/* recordings (cmd_record.c, cmd_osc_play.c) */
+int cmd_record(int argc, char **argv);
+int cmd_osc_play(int argc, char **argv);
 
 static const cli_command commands[] = {
     /* model commands */
@@ -43,6 +46,10 @@ static const cli_command commands[] = {
     /* depth commands */
     {"depth-eval", "score depth->markers on a mesh sequence seen by the test camera", cmd_depth_eval},
     {"kinect", "Kinect v1 tilt and LED; list or watch depth sensors on USB", cmd_kinect},
+
+    /* recordings */
+    {"record", "make a recording of recordings/ (markers, OSC, depth, .oni) from the example", cmd_record},
+    {"osc-play", "send an OSC capture to a UDP port at its recorded times", cmd_osc_play},
 
     {NULL, NULL, NULL},
 };

@@ -23,6 +23,11 @@ void srv_metrics_count(atomic_uint_fast64_t *c, uint64_t n)
     atomic_fetch_add_explicit(c, n, memory_order_relaxed);
 }
 
+void srv_metrics_set(atomic_uint_fast64_t *c, uint64_t v)
+{
+    atomic_store_explicit(c, v, memory_order_relaxed);
+}
+
 void srv_hist_observe(srv_hist *h, uint64_t us)
 {
     int b = 0;
@@ -114,6 +119,26 @@ size_t srv_metrics_render(const srv_metrics *m, double uptime_s, char *buf, size
     counter(&o, "meshsteer_reloads_total", "Model reloads that succeeded.", ld(&m->reloads_ok));
     counter(&o, "meshsteer_reloads_failed_total", "Model reloads that failed (old model kept).",
             ld(&m->reloads_failed));
+    if (atomic_load(&m->osc.present)) {
+        const srv_osc_metrics *c = &m->osc;
+        counter(&o, "meshsteer_osc_packets_total", "UDP datagrams the osc: source received.",
+                ld(&c->packets));
+        counter(&o, "meshsteer_osc_malformed_total",
+                "Datagrams that are not OSC 1.0 (dropped whole).", ld(&c->malformed));
+        counter(&o, "meshsteer_osc_messages_total", "OSC messages in well-formed datagrams.",
+                ld(&c->messages));
+        counter(&o, "meshsteer_osc_bad_messages_total",
+                "Messages to a known address with wrong arguments (dropped).", ld(&c->bad_messages));
+        counter(&o, "meshsteer_osc_unknown_names_total",
+                "Markers or bones not in the source's marker set (ignored).", ld(&c->unknown_names));
+        counter(&o, "meshsteer_osc_ignored_total", "Messages to other addresses (ignored).",
+                ld(&c->ignored));
+        counter(&o, "meshsteer_osc_frames_total", "Marker frames the OSC traffic completed.",
+                ld(&c->frames));
+        counter(&o, "meshsteer_osc_coalesced_total",
+                "OSC frames replaced by a newer one before the daemon read them (latest wins).",
+                ld(&c->coalesced));
+    }
     hist(&o, "meshsteer_synthesis_seconds", "Synthesis plus encoding time per frame.", &m->synth);
     hist(&o, "meshsteer_latency_seconds",
          "End-to-end latency from marker capture to the frame's send, per client message.",

@@ -25,6 +25,15 @@ enum {
     SRV_DROP_COUNT
 };
 
+/* The counters of an osc: source (drivers.h drv_osc_counts), mirrored by the source thread after
+ * each read: the source keeps them, the daemon shows them. present = 1 when the source is an
+ * osc: one (the meshsteer_osc_* metrics are rendered only then). */
+typedef struct srv_osc_metrics {
+    atomic_int present;
+    atomic_uint_fast64_t packets, malformed, messages, bad_messages, unknown_names, ignored,
+        frames, coalesced;
+} srv_osc_metrics;
+
 typedef struct srv_metrics {
     atomic_uint_fast64_t frames_in;    /* marker frames from the source */
     atomic_uint_fast64_t frames_synth; /* mesh frames synthesised and published */
@@ -43,11 +52,14 @@ typedef struct srv_metrics {
     atomic_int clients;
     srv_hist synth;   /* synthesis + encoding time */
     srv_hist latency; /* capture -> send, per frame message */
+    srv_osc_metrics osc;
 } srv_metrics;
 
 void srv_metrics_init(srv_metrics *m);
 void srv_hist_observe(srv_hist *h, uint64_t us);
 void srv_metrics_count(atomic_uint_fast64_t *c, uint64_t n);
+/* Sets a mirrored counter (a source's own running total). */
+void srv_metrics_set(atomic_uint_fast64_t *c, uint64_t v);
 /* Renders every metric; returns the length, or the needed length (>= cap) when buf is too small. */
 size_t srv_metrics_render(const srv_metrics *m, double uptime_s, char *buf, size_t cap);
 

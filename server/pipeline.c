@@ -407,6 +407,18 @@ static void apply_controls(srv_pipeline *p)
         p->wake(p->wake_ud);
 }
 
+static void mirror_osc_counts(srv_osc_metrics *m, const drv_osc_counts *c)
+{
+    srv_metrics_set(&m->packets, c->packets);
+    srv_metrics_set(&m->malformed, c->malformed);
+    srv_metrics_set(&m->messages, c->messages);
+    srv_metrics_set(&m->bad_messages, c->bad_messages);
+    srv_metrics_set(&m->unknown_names, c->unknown_names);
+    srv_metrics_set(&m->ignored, c->ignored);
+    srv_metrics_set(&m->frames, c->frames);
+    srv_metrics_set(&m->coalesced, c->coalesced);
+}
+
 static void *source_main(void *arg)
 {
     srv_pipeline *p = arg;
@@ -415,10 +427,15 @@ static void *source_main(void *arg)
     uint8_t *valid = calloc((size_t)s->count, 1);
     char e[DRV_ERR_LEN];
     int last_state = -1;
+    drv_osc_counts oc;
+    int osc = drv_osc_counts_get(s, &oc) == 0; /* an osc: source: its counters go to /metrics */
+    atomic_store(&p->m->osc.present, osc);
     while (xyz && valid && !atomic_load(&p->stop)) {
         apply_controls(p);
         drv_frame f = {.count = s->count, .xyz = xyz, .valid = valid};
         int r = drv_source_read(s, &f, SOURCE_TIMEOUT_MS, e);
+        if (osc && drv_osc_counts_get(s, &oc) == 0)
+            mirror_osc_counts(&p->m->osc, &oc);
         if ((int)s->state != last_state) {
             last_state = (int)s->state;
             atomic_store(&p->src_state, last_state);

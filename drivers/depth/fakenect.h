@@ -19,14 +19,7 @@
 extern "C" {
 #endif
 
-typedef struct drv_fakenect_writer drv_fakenect_writer;
-
-/* Creates DIR (or uses an empty existing one; refuses one that has an INDEX.txt). */
-int drv_fakenect_writer_open(const char *dir, drv_fakenect_writer **out, char *err);
-/* Writes one 640x480 depth frame given in millimetres (0 = none) at host time `t` seconds. */
-int drv_fakenect_writer_depth(drv_fakenect_writer *w, double t, uint32_t timestamp,
-                              const uint16_t *mm, char *err);
-int drv_fakenect_writer_close(drv_fakenect_writer *w, char *err); /* NULL is fine */
+/* The writer (drv_fakenect_writer_open/_depth/_close) is declared in ../depth.h. */
 
 /* Parses one INDEX.txt line; returns 1 for a depth entry (time and timestamp set), 0 for another
  * kind of entry, a negative error for a malformed line. */

@@ -10,9 +10,11 @@
  * "OpenNI2/Drivers" next to the loaded libOpenNI2.so.0 (or the Repository of the fixed
  * /etc/openni2/OpenNI.ini); tests stage such a directory (test_openni2.c).
  *
- * URI: meshsteer-testcam:DIR[?vanish=N&fps=F&cropping=0|1]. One depth stream, 640x480 1 mm
- * pixels, frames of DIR in a loop at F fps (default: the recorded rate), timestamps in device
- * microseconds from stream start. vanish=N: after N frames the device reports itself disconnected
+ * URI: meshsteer-testcam:DIR[?vanish=N&fps=F&delay=MS&cropping=0|1]. One depth stream, 640x480
+ * 1 mm pixels, frames of DIR in a loop at F fps (default: the recorded rate), timestamps in device
+ * microseconds from stream start; the first frame comes MS milliseconds after the stream starts
+ * (default 0; OpenNI2's recorder, started on its own thread, misses frames that come before it
+ * runs: `meshsteer record oni` waits so that a recording holds every frame). vanish=N: after N frames the device reports itself disconnected
  * (OpenNI2's deviceDisconnected callback) and delivers nothing more; opening the URI again brings
  * it back. The stream reports cropping (off) as real drivers do, since OpenNI2's recorder needs it
  * for its recordings to play; cropping=0 imitates a driver that does not.
@@ -70,6 +72,7 @@ struct tc_device {
     OniSensorInfo sensor;
     char dir[1024];
     int vanish;            /* frames before vanishing, 0 = never */
+    int delay_ms;          /* before the first frame */
     int cropping;          /* 1: the cropping property is reported */
     double fps;
     int n;                 /* frames */
@@ -80,7 +83,7 @@ struct tc_device {
 };
 
 static int parse_uri(const char *uri, char *dir, size_t dirlen, int *vanish, double *fps,
-                     int *cropping)
+                     int *delay_ms, int *cropping)
 {
     if (strncmp(uri, TC_PREFIX, strlen(TC_PREFIX)))
         return -1;
@@ -93,6 +96,7 @@ static int parse_uri(const char *uri, char *dir, size_t dirlen, int *vanish, dou
     dir[dl] = '\0';
     *vanish = 0;
     *fps = 0;
+    *delay_ms = 0;
     *cropping = 1;
     while (q && *q) {
         q++;
@@ -102,6 +106,11 @@ static int parse_uri(const char *uri, char *dir, size_t dirlen, int *vanish, dou
             if (end == q + 7 || v < 0)
                 return -1;
             *vanish = (int)v;
+        } else if (!strncmp(q, "delay=", 6)) {
+            long v = strtol(q + 6, &end, 10);
+            if (end == q + 6 || v < 0 || v > 60000)
+                return -1;
+            *delay_ms = (int)v;
         } else if (!strncmp(q, "fps=", 4)) {
             double f = strtod(q + 4, &end);
             if (end == q + 4 || !(f > 0 && f <= 1000))
@@ -176,6 +185,8 @@ static void *stream_thread(void *arg)
     tc_device *d = s->dev;
     uint64_t period = (uint64_t)(1e6 / d->fps);
     int sent = 0;
+    for (int waited = 0; waited < d->delay_ms && !atomic_load(&s->stop); waited += 10)
+        sleep_us(10000);
     for (int k = 0; !atomic_load(&s->stop); k = (k + 1) % d->n) {
         if (d->vanish > 0 && sent >= d->vanish) {
             if (g_drv.disconnected)
@@ -247,9 +258,9 @@ EXPORT OniStatus oniDriverInitialize(tc_dev_cb connected, tc_dev_cb disconnected
 EXPORT OniStatus oniDriverTryDevice(const char *uri)
 {
     char dir[1024], path[1100];
-    int vanish, cropping;
+    int vanish, delay, cropping;
     double fps;
-    if (!uri || parse_uri(uri, dir, sizeof dir, &vanish, &fps, &cropping) != 0)
+    if (!uri || parse_uri(uri, dir, sizeof dir, &vanish, &fps, &delay, &cropping) != 0)
         return ONI_STATUS_ERROR;
     snprintf(path, sizeof path, "%s/INDEX.txt", dir);
     FILE *f = fopen(path, "r");
@@ -272,7 +283,7 @@ EXPORT void *oniDriverDeviceOpen(const char *uri, const char *mode)
     tc_device *d = calloc(1, sizeof *d);
     if (!d)
         return NULL;
-    if (!uri || parse_uri(uri, d->dir, sizeof d->dir, &d->vanish, &d->fps, &d->cropping) != 0 ||
+    if (!uri || parse_uri(uri, d->dir, sizeof d->dir, &d->vanish, &d->fps, &d->delay_ms, &d->cropping) != 0 ||
         load_index(d) != 0 || !(d->mm = malloc((size_t)TC_W * TC_H * 2)) ||
         !(d->buf = malloc(64 + (size_t)TC_W * TC_H * 2 + 1))) {
         free(d->file);

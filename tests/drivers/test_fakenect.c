@@ -7,6 +7,7 @@
 #include "test.h"
 
 #include <errno.h>
+#include <math.h>
 #include <unistd.h>
 
 static const char *frames[] = {"depth-data-1038901490", "depth-data-1045879925",
@@ -29,6 +30,42 @@ int main(void)
         ASSERT_INT_LT(drv_fakenect_parse_index_line(bad[i], strlen(bad[i]), &t, &ts, err), 0);
         ASSERT_INT_GT(strlen(err), 0);
     }
+    /* the committed recording (recordings/depth-fakenect: the example creature trotting, seen
+     * by the test camera, one frame a second; recordings/README.md) through the source: needs
+     * nothing outside the repository */
+    {
+        drv_source rs = {0};
+        rs.ops = &drv_fakenect_ops;
+        char spec[4200];
+        snprintf(spec, sizeof spec, "%s?loop=0", test_src("recordings/depth-fakenect"));
+        ASSERT_OK(rs.ops->open(&rs, spec, err), err);
+        ASSERT_INT_EQ(rs.count, 6);
+        ASSERT_NEAR(rs.fps, 1, 1e-9); /* frames at 0, 1 and 2 s */
+        ASSERT_OK(rs.ops->start(&rs, err), err);
+        float rxyz[18];
+        uint8_t rvalid[6];
+        drv_frame rf = {0, 0, 6, rxyz, rvalid};
+        for (int k = 0; k < 3; k++) {
+            int r = rs.ops->read(&rs, &rf, 3000, err);
+            ASSERT_OK(r, err);
+            ASSERT_INT_EQ(rf.seq, k);
+            int nvalid = 0;
+            for (int m = 0; m < 6; m++)
+                if (rvalid[m]) {
+                    nvalid++;
+                    /* the creature stands 2.5 m in front of the camera, 1.7 m long */
+                    ASSERT_LT(rxyz[3 * m + 2], -1.5f);
+                    ASSERT_GT(rxyz[3 * m + 2], -3.5f);
+                    ASSERT_LT(fabsf(rxyz[3 * m]), 1.2f);
+                }
+            printf("recording frame %d: %d of 6 markers found\n", k, nvalid);
+            ASSERT_INT_GE(nvalid, 3);
+        }
+        ASSERT_INT_EQ(rs.ops->read(&rs, &rf, 3000, err), DRV_EEOF);
+        rs.ops->stop(&rs);
+        rs.ops->close(&rs);
+    }
+
     /* PGM header checks */
     uint16_t *mm = malloc(640 * 480 * sizeof *mm), *back = malloc(640 * 480 * sizeof *back);
     const char *hdrs[] = {"P6 640 480 65535\n", "P5 320 240 65535\n", "P5 640 480 255\n", "P5 640 480",

@@ -124,6 +124,24 @@ static int read_frames(drv_source *s, int want, int tries, float *xyz, uint8_t *
     return got;
 }
 
+/* Opens an .oni through OpenNI2's C API for OpenNI2's manual playback (one frame per wait), played
+ * once; returns its number of frames. */
+static int open_recording(const char *oni, OniDeviceHandle *dev, OniStreamHandle *str)
+{
+    ASSERT_INT_EQ(oniInitialize(ONI_API_VERSION), ONI_STATUS_OK);
+    ASSERT_INT_EQ(oniDeviceOpen(oni, dev), ONI_STATUS_OK);
+    float speed = -1;
+    OniBool rep = 0;
+    ASSERT_INT_EQ(oniDeviceSetProperty(*dev, ONI_DEVICE_PROPERTY_PLAYBACK_SPEED, &speed, sizeof speed),
+                  ONI_STATUS_OK);
+    ASSERT_INT_EQ(oniDeviceSetProperty(*dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep, sizeof rep),
+                  ONI_STATUS_OK);
+    ASSERT_INT_EQ(oniDeviceCreateStream(*dev, ONI_SENSOR_DEPTH, str), ONI_STATUS_OK);
+    int n = 0, sz = sizeof n;
+    ASSERT_INT_EQ(oniStreamGetProperty(*str, ONI_STREAM_PROPERTY_NUMBER_OF_FRAMES, &n, &sz), ONI_STATUS_OK);
+    return n;
+}
+
 static char daemon_log[4400];
 
 /* meshsteerd with a model and a source, on 127.0.0.1:port, its output to daemon_log */
@@ -402,6 +420,88 @@ int main(int argc, char **argv)
         ASSERT_INT_EQ(drv_clock_map_apply(&m, 200100, 600000), 600000);       /* drifted */
     }
 
+    /* ---- the committed recording (recordings/depth.oni, made by OpenNI2's recorder from the
+     * test camera: 15 frames, 5 a second; recordings/README.md) plays through OpenNI2's file
+     * driver: every frame 640x480 1 mm at 200 ms steps, and frames 0, 5, 10 equal pixel for pixel
+     * the three frames of the committed fakenect dump (the same trot, one frame a second) */
+    {
+        const char *oni = test_src("recordings/depth.oni");
+        const char *fdir = test_src("recordings/depth-fakenect");
+        const char *pgms[3] = {"d-0.000000-0.pgm", "d-1.000000-30.pgm", "d-2.000000-60.pgm"};
+        uint16_t *want = malloc(640 * 480 * 2);
+        uint8_t *buf = malloc(64 + 640 * 480 * 2);
+        ASSERT(want && buf);
+        OniDeviceHandle dev;
+        OniStreamHandle str;
+        ASSERT_INT_EQ(open_recording(oni, &dev, &str), 15);
+        ASSERT_INT_EQ(oniStreamStart(str), ONI_STATUS_OK);
+        int n = 0;
+        uint64_t t0 = 0;
+        for (int idx; oniWaitForAnyStream(&str, 1, &idx, 1000) == ONI_STATUS_OK;) {
+            OniFrame *f = NULL;
+            ASSERT_INT_EQ(oniStreamReadFrame(str, &f), ONI_STATUS_OK);
+            ASSERT_INT_EQ(f->width, 640);
+            ASSERT_INT_EQ(f->height, 480);
+            ASSERT_INT_EQ(f->videoMode.pixelFormat, ONI_PIXEL_FORMAT_DEPTH_1_MM);
+            if (n == 0)
+                t0 = f->timestamp;
+            ASSERT_INT_LE(llabs((long long)(f->timestamp - t0) - n * 200000LL), n);
+            if (n % 5 == 0) {
+                char pgm[4400];
+                snprintf(pgm, sizeof pgm, "%s/%s", fdir, pgms[n / 5]);
+                FILE *in = fopen(pgm, "rb");
+                ASSERT(in);
+                size_t len = fread(buf, 1, 64 + 640 * 480 * 2, in);
+                fclose(in);
+                ASSERT_OK(drv_fakenect_parse_depth(buf, len, pgm, want, err), err);
+                const uint16_t *px = f->data;
+                int diff = 0, seen = 0;
+                for (int i = 0; i < 640 * 480; i++) {
+                    seen += px[i] != 0;
+                    if (px[i] != want[i] && diff++ < 3)
+                        fprintf(stderr, "depth.oni frame %d pixel %d: %u, the dump has %u\n", n, i,
+                                px[i], want[i]);
+                }
+                ASSERT_INT_EQ(diff, 0);
+                ASSERT_INT_GT(seen, 640 * 480 / 2); /* the floor and the creature */
+            }
+            oniFrameRelease(f);
+            n++;
+        }
+        ASSERT_INT_EQ(n, 15);
+        oniStreamStop(str);
+        oniStreamDestroy(str);
+        oniDeviceClose(dev);
+        oniShutdown();
+        free(want);
+        free(buf);
+        /* and through the openni2: source, as the daemon plays it: 15 frames, then the end */
+        char rspec[4400];
+        snprintf(rspec, sizeof rspec, "openni2:%s#loop=0&speed=0", oni);
+        drv_source *rs;
+        ASSERT_OK(drv_source_open(rspec, &rs, err), err);
+        ASSERT_INT_EQ(rs->count, DRV_DEPTH_NLABELS);
+        ASSERT_OK(drv_source_start(rs, err), err);
+        int got = 0, end = 0;
+        for (int it = 0; it < 100 && !end; it++) {
+            float xyz[DRV_DEPTH_NLABELS * 3];
+            uint8_t valid[DRV_DEPTH_NLABELS];
+            drv_frame fr = {.count = DRV_DEPTH_NLABELS, .xyz = xyz, .valid = valid};
+            int r = drv_source_read(rs, &fr, 500, err);
+            if (r == DRV_EEOF)
+                end = 1;
+            else if (r != DRV_ETIMEOUT) {
+                ASSERT_OK(r, err);
+                got++;
+            }
+        }
+        drv_source_close(rs);
+        printf("recordings/depth.oni: %d frames in the file, %d through the source, then %s\n", n,
+               got, end ? "the end" : "no end");
+        ASSERT(end);
+        ASSERT_INT_EQ(got, 15);
+    }
+
     /* ---- a dump of real Kinect frames for the plugin to serve */
     char dir[4300];
     snprintf(dir, sizeof dir, "%s/dump", stage);
@@ -507,18 +607,7 @@ int main(int argc, char **argv)
         {
             OniDeviceHandle dev;
             OniStreamHandle str;
-            ASSERT_INT_EQ(oniInitialize(ONI_API_VERSION), ONI_STATUS_OK);
-            ASSERT_INT_EQ(oniDeviceOpen(oni, &dev), ONI_STATUS_OK);
-            float speed = -1; /* OpenNI2's manual mode: one frame per wait */
-            OniBool rep = 0;
-            ASSERT_INT_EQ(oniDeviceSetProperty(dev, ONI_DEVICE_PROPERTY_PLAYBACK_SPEED, &speed, sizeof speed),
-                          ONI_STATUS_OK);
-            ASSERT_INT_EQ(oniDeviceSetProperty(dev, ONI_DEVICE_PROPERTY_PLAYBACK_REPEAT_ENABLED, &rep, sizeof rep),
-                          ONI_STATUS_OK);
-            ASSERT_INT_EQ(oniDeviceCreateStream(dev, ONI_SENSOR_DEPTH, &str), ONI_STATUS_OK);
-            int sz = sizeof nrec;
-            ASSERT_INT_EQ(oniStreamGetProperty(str, ONI_STREAM_PROPERTY_NUMBER_OF_FRAMES, &nrec, &sz),
-                          ONI_STATUS_OK);
+            nrec = open_recording(oni, &dev, &str);
             printf("recording: %d frames in the file\n", nrec);
             /* the recorder starts on its own thread and may miss the first frame or two */
             ASSERT_INT_GE(nrec, got - 3);

@@ -1,13 +1,17 @@
 /* test_osc.c - the osc: source (drivers/osc/): OSC packets built by liblo and read by our walker
- * (packet.c), corrupt packets dropped whole, VMC forward kinematics (vmc.c), and the source over
- * real UDP on loopback, fed by liblo's lo_send (a C sender) and by liblo's own `oscsend` tool. */
+ * (packet.c), corrupt packets dropped whole, VMC forward kinematics (vmc.c), the source over
+ * real UDP on loopback, fed by liblo's lo_send (a C sender) and by liblo's own `oscsend` tool, and
+ * OSC captures (capture.c): the committed recordings/example-trot.osc sent datagram by datagram
+ * gives the frames of recordings/example-trot.c3d; malformed captures are refused. */
 #include "osc/osc.h"
 #include "osc/packet.h"
 #include "osc/vmc.h"
+#include "model.h"
 #include "test.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
+#include <math.h>
 #include <lo/lo.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -354,6 +358,92 @@ static void test_specs(void)
     printf("specs: %zu bad specs refused with a message\n", sizeof bad / sizeof *bad);
 }
 
+/* ---- OSC captures: the committed take, sent to the source, is the committed C3D ---- */
+
+static void test_capture(void)
+{
+    char err[DRV_ERR_LEN] = "";
+    drv_osc_capture *c = NULL;
+    mdl_markers *mk = NULL;
+    ASSERT_OK(drv_osc_capture_read(test_src("recordings/example-trot.osc"), &c, err), err);
+    ASSERT_OK(mdl_markers_read(test_src("recordings/example-trot.c3d"), NULL, &mk, err), err);
+    ASSERT_INT_EQ(c->count, mk->frames);
+    for (int f = 0; f < c->count; f++) /* 30 frames a second */
+        ASSERT_INT_EQ(c->t_us[f], (uint64_t)llround(f * 1e6 / 30));
+    /* every datagram is a bundle of one /marker message per marker (the walker counts) */
+    seen sn = {0};
+    drv_osc_visitor v = {see_msg, see_bundle, &sn};
+    ASSERT_OK(drv_osc_packet_walk(c->data + c->off[0], c->len[0], &v, err), err);
+    ASSERT_INT_EQ(sn.messages, mk->count);
+    ASSERT_INT_EQ(sn.begins, 1);
+    ASSERT(!strcmp(sn.addr[0], "/marker") && !strcmp(sn.str[0], mk->names[0]));
+
+    char spec[2048] = "osc:127.0.0.1:0?stale=0&markers=";
+    for (int m = 0; m < mk->count; m++)
+        snprintf(spec + strlen(spec), sizeof spec - strlen(spec), "%s%s", m ? "," : "", mk->names[m]);
+    drv_source *s;
+    ASSERT_OK(drv_source_open(spec, &s, err), err);
+    ASSERT_INT_EQ(s->count, mk->count);
+    ASSERT_OK(drv_source_start(s, err), err);
+    int port = drv_osc_port(s);
+    float xyz[3 * 64];
+    uint8_t valid[64];
+    ASSERT(mk->count <= 64);
+    double worst = 0;
+    for (int f = 0; f < c->count; f++) { /* the test sender: each datagram as it is, one by one */
+        ASSERT(raw_send(port, c->data + c->off[f], c->len[f]) == 0);
+        ASSERT_OK(read_frame(s, xyz, valid, 1000, err), err);
+        for (int m = 0; m < mk->count; m++) {
+            size_t i = (size_t)f * mk->count + m;
+            ASSERT_INT_EQ(valid[m], mk->valid[i]);
+            for (int k = 0; k < 3; k++)
+                worst = fmax(worst, fabs(xyz[3 * m + k] - mk->P[3 * i + k]));
+        }
+    }
+    drv_osc_counts n;
+    ASSERT_OK(drv_osc_counts_get(s, &n), "counts");
+    drv_source_close(s);
+    /* the C3D keeps float millimetres: within a float32 step of a 2 m coordinate in mm */
+    ASSERT_NEAR(worst, 0, 1e-6);
+    ASSERT_INT_EQ(n.frames, c->count);
+    ASSERT_INT_EQ(n.malformed, 0);
+    ASSERT_INT_EQ(n.messages, (uint64_t)c->count * mk->count);
+
+    /* malformed captures: the reason and the byte */
+    size_t len = 16 + 12 + c->len[0];
+    uint8_t *b = malloc(len + 8);
+    ASSERT(b);
+    memcpy(b, "MSOSCCAP\1\0\0\0\1\0\0\0", 16);
+    memset(b + 16, 0, 8);
+    b[24] = (uint8_t)c->len[0], b[25] = (uint8_t)(c->len[0] >> 8), b[26] = b[27] = 0;
+    memcpy(b + 28, c->data + c->off[0], c->len[0]);
+    drv_osc_capture *one = NULL;
+    ASSERT_OK(drv_osc_capture_parse(b, len, "one.osc", &one, err), err);
+    ASSERT_INT_EQ(one->count, 1);
+    drv_osc_capture_destroy(one);
+    ASSERT_INT_EQ(drv_osc_capture_parse(b, len - 4, "cut.osc", &one, err), MDL_EFORMAT);
+    ASSERT(strstr(err, "cut.osc: byte 16") && strstr(err, "ends inside"));
+    b[28] = 'x'; /* "#bundle" -> "xbundle": not OSC */
+    ASSERT_INT_EQ(drv_osc_capture_parse(b, len, "bad.osc", &one, err), MDL_EFORMAT);
+    ASSERT(strstr(err, "bad.osc: byte 28: datagram 0 is not OSC"));
+    b[28] = '#';
+    memset(b + len, 0, 8);
+    ASSERT_INT_EQ(drv_osc_capture_parse(b, len + 8, "tail.osc", &one, err), MDL_EFORMAT);
+    ASSERT(strstr(err, "8 bytes after the last datagram"));
+    b[12] = 200; /* 200 datagrams cannot fit */
+    ASSERT_INT_EQ(drv_osc_capture_parse(b, len, "count.osc", &one, err), MDL_EFORMAT);
+    ASSERT(strstr(err, "byte 12"));
+    b[8] = 2;
+    ASSERT_INT_EQ(drv_osc_capture_parse(b, len, "v2.osc", &one, err), MDL_EFORMAT);
+    ASSERT(strstr(err, "version 2"));
+    ASSERT(drv_osc_capture_read("/nonexistent.osc", &one, err) == -ENOENT && !one);
+    free(b);
+    printf("capture: %d datagrams of recordings/example-trot.osc are the C3D's frames (worst "
+           "%.2g m); malformed captures refused\n", c->count, worst);
+    mdl_markers_destroy(mk);
+    drv_osc_capture_destroy(c);
+}
+
 int main(void)
 {
     test_walk();
@@ -361,5 +451,6 @@ int main(void)
     test_specs();
     test_source_markers();
     test_source_vmc();
+    test_capture();
     return 0;
 }

@@ -63,12 +63,14 @@ seeds_of() {
     csv) local_seeds=(tests/data/markers/*.csv); globs=('*.csv') ;;
     model) local_seeds=("$build/tests/fuzz/seed.msm" "$build/tests/fuzz/seed-harmonic.msm"
                         tests/data/model_v1.msm) ;;
-    fakenect) local_seeds=(tests/data/fakenect_INDEX.txt tests/data/fakenect_truncated.pgm)
+    fakenect) local_seeds=(tests/data/fakenect_INDEX.txt tests/data/fakenect_truncated.pgm
+                        recordings/depth-fakenect/INDEX.txt)
               globs=('INDEX.txt' '*.pgm') ;;
     control) local_seeds=(tests/server/data/control_*.json) ;;
     daemon_config) local_seeds=(tests/server/data/meshsteerd.conf server/meshsteerd.conf.example) ;;
     labels) local_seeds=(tests/server/data/labels_*.txt) ;;
     wsframe) local_seeds=(tests/server/data/ws_stream.bin) ;;
+    osc_capture) local_seeds=(recordings/example-trot.osc) ;;
     esac
     for f in "${local_seeds[@]}"; do [ -f "$f" ] && echo "$f"; done
     if [ -d "$data" ]; then

@@ -1,6 +1,9 @@
 /* make_model.c - test fixture: trains a model on the built-in example creature and writes it with
  * the example's trot marker recording, so the daemon's integration tests need nothing outside the
- * repository.  Usage: make_model OUT_DIR  ->  OUT_DIR/example.msm, OUT_DIR/trot.csv,
+ * repository. The trot is the committed take, recordings/example-trot.c3d (MESHSTEER_RECORDINGS,
+ * compiled in; recordings/README.md), not generated again: trot.csv is that file in CSV, for the
+ * tests that edit its columns or read it as text (the viewer's).
+ * Usage: make_model OUT_DIR  ->  OUT_DIR/example.msm, OUT_DIR/trot.csv,
  * OUT_DIR/corrupt.msm (the model file cut in half, for the SIGHUP test), OUT_DIR/skin.msm (a skin
  * of the same example: a clock-driven kind), OUT_DIR/two-kinds.msm (the steering model with
  * that skin beside it, the daemon's idle animation) and OUT_DIR/two-kinds-walk.msm (the same, its
@@ -23,7 +26,8 @@ int main(int argc, char **argv)
     mdl_markers *mk = NULL;
     mdl_model *m = NULL;
     int frames = 120;
-    if (mdl_example_create(frames, &seq, &rig, err) || mdl_example_markers(rig, 240, 1.3, &mk, NULL, err)) {
+    if (mdl_example_create(frames, &seq, &rig, err) ||
+        mdl_markers_read(MESHSTEER_RECORDINGS "/example-trot.c3d", NULL, &mk, err)) {
         fprintf(stderr, "make_model: %s\n", err);
         return 1;
     }

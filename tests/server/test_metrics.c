@@ -31,10 +31,34 @@ int main(void)
     ASSERT(strstr(buf, "meshsteer_latency_seconds_sum 5.001550\n"));
     ASSERT(strstr(buf, "# TYPE meshsteer_clients gauge\n"));
     ASSERT(strstr(buf, "meshsteer_uptime_seconds 12.500\n"));
+    ASSERT(!strstr(buf, "meshsteer_osc_")); /* no osc: source */
     /* every sample line is "name[{labels}] value" */
     for (char *line = strtok(buf, "\n"); line; line = strtok(NULL, "\n"))
         if (line[0] != '#')
             ASSERT(strchr(line, ' ') && strncmp(line, "meshsteer_", 10) == 0);
+    /* the osc: source's counters only when the source is one */
+    {
+        static srv_metrics mo;
+        srv_metrics_init(&mo);
+        atomic_store(&mo.osc.present, 1);
+        srv_metrics_set(&mo.osc.packets, 7);
+        srv_metrics_set(&mo.osc.malformed, 2);
+        srv_metrics_set(&mo.osc.malformed, 3); /* a mirror: the source's total, not an increment */
+        srv_metrics_set(&mo.osc.coalesced, 1);
+        size_t on = srv_metrics_render(&mo, 1, NULL, 0);
+        char *ob = malloc(on + 1);
+        ASSERT(ob);
+        srv_metrics_render(&mo, 1, ob, on + 1);
+        ASSERT(strstr(ob, "# TYPE meshsteer_osc_packets_total counter\nmeshsteer_osc_packets_total 7\n"));
+        ASSERT(strstr(ob, "\nmeshsteer_osc_malformed_total 3\n"));
+        ASSERT(strstr(ob, "\nmeshsteer_osc_messages_total 0\n"));
+        ASSERT(strstr(ob, "\nmeshsteer_osc_bad_messages_total 0\n"));
+        ASSERT(strstr(ob, "\nmeshsteer_osc_unknown_names_total 0\n"));
+        ASSERT(strstr(ob, "\nmeshsteer_osc_ignored_total 0\n"));
+        ASSERT(strstr(ob, "\nmeshsteer_osc_frames_total 0\n"));
+        ASSERT(strstr(ob, "\nmeshsteer_osc_coalesced_total 1\n"));
+        free(ob);
+    }
     /* a short buffer is truncated, NUL-terminated, and the full size is reported */
     char small[64];
     ASSERT_INT_EQ(srv_metrics_render(&m, 12.5, small, sizeof small), need);

@@ -8,7 +8,8 @@
 # The harmonic form (issue 9): the static human built as a harmonic model from the CMU rig and
 # 131_03.bvh, streamed by meshsteerd replaying that BVH in a loop (skips without ../shared/data);
 # viewer.mjs then checks frames, changing vertices and no NaN, and saves the screenshot.
-# The demo form does what `scripts/run.sh demo` does: `meshsteer demo --out DIR`, then meshsteerd
+# The demo form does what `scripts/run.sh demo` does: `meshsteer demo --out DIR --markers
+# recordings/example-trot.c3d`, then meshsteerd
 # on DIR/model.msm replaying DIR/trot.csv with no --web-root (the viewer it finds by itself).
 set -euo pipefail
 meshsteerd=$1 make_model=$2 shot=$3
@@ -41,7 +42,8 @@ harmonic:*)
     export MESHSTEER_KIND=harmonic
     ;;
 demo:*)
-    "${make_model#demo:}" demo --out "$dir" >"$dir/demo.txt"
+    "${make_model#demo:}" demo --out "$dir" --markers "${MESHSTEER_SRC:-$here/../../..}/recordings/example-trot.c3d" \
+        >"$dir/demo.txt"
     cp "$dir/model.msm" "$dir/example.msm"
     webarg=""
     ;;
