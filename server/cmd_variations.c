@@ -25,14 +25,19 @@ static const char usage_text[] =
     "(`meshsteer skin`; Zheng 2013): transitions between frames whose bone poses, seen from the\n"
     "most influential bone, are close (Sec. 3.2), spliced with that bone matched rigidly and the\n"
     "others blended linearly, and random walks on the graph they make (Sec. 3.4). Writes\n"
-    "OUT_DIR/variation_000.pc2, ... (the skinned mesh; topology: the model's rest pose).\n"
+    "OUT_DIR/variation_000.pc2, ... (the skinned mesh; topology: the model's rest pose). Where\n"
+    "the bone graph has cut nodes, each component between them walks on its own graph and\n"
+    "the components are merged at their cut nodes (Sec. 4, Algorithm 1).\n"
     "\n"
     "  --model SKIN.msm      a model file holding a skin\n"
     "  --count N             number of variations (required, >= 1)\n"
     "  --frames F            frames per variation (required, >= 1)\n"
     "  --seed S              variation k uses seed S + k (default 1)\n"
-    "  --threshold F         T_c itself (default: 40 x max D(i, i-1), the paper's)\n"
-    "  --tc-factor F         T_c = F x max D(i, i-1) (default 40)\n"
+    "  --threshold F         T_c itself (default: max D(i, i-1) / 40; docs/MODEL.md)\n"
+    "  --tc-factor F         T_c = F x max D(i, i-1) (default 0.025; the paper prints 40)\n"
+    "  --components auto|1   auto (default): the bone graph's blocks between its cut nodes\n"
+    "                        walk apart and are merged (Sec. 4); 1: the skin as one\n"
+    "  --te-factor F         bone graph edges below F x the largest are dropped (default 0.1)\n"
     "  --blend N             frames over which a transition is blended (default 8, 0: none)\n"
     "  --jump-prob P         chance per frame of taking an open transition (default 0.2)\n"
     "  --temperature F       prefer cheap transitions: chance ~ exp(-D / (F x max D(i, i-1)))\n"
@@ -45,14 +50,19 @@ static const char usage_text[] =
     "                        file: the daemon's idle source then walks. --model defaults to it;\n"
     "                        --count, --frames and -o are then optional\n"
     "  --json                print bones, frames, ref_bone, rank, alpha, beta, max_adjacent,\n"
-    "                        tc, transitions, the transition list (from, to, cost),\n"
+    "                        tc, transitions (the components' sum), single_transitions (the\n"
+    "                        whole skin's graph), the transition list (from, to, cost) of\n"
+    "                        the whole skin's graph, cut_nodes, components (per component\n"
+    "                        its bones, cut node, parent, ref_bone, tc, transitions and\n"
+    "                        their list),\n"
     "                        example_max_jump, example_p99_accel and example_max_accel (the\n"
     "                        99th percentile and the largest of the example's vertex\n"
     "                        accelerations), synth_s and per variation its\n"
     "                        file, transitions taken, max_jump and max_jump_ratio (to the\n"
     "                        example's), transition_max_accel (the largest vertex acceleration\n"
     "                        within 3 frames of a transition) and transition_accel_ratio (to the\n"
-    "                        example's 99th percentile)\n";
+    "                        example's 99th percentile), and per component the transitions\n"
+    "                        taken as \"from>to ...\" (components_taken)\n";
 
 static double max_jump(const float *V, int nv, int frames)
 {
@@ -145,21 +155,90 @@ static void example_motion(const mdl_model *m, double *jump, double *p99, double
     free(acc);
 }
 
+/* the transitions component q took, as "from>to from>to ..." (malloc'd); *taken counts them */
+static char *walk_taken(const int *src, int ncomp, int q, int frames, int *taken)
+{
+    size_t cap = 64, len = 0;
+    char *s = malloc(cap);
+    if (!s)
+        return NULL;
+    s[0] = 0;
+    for (int f = 1; f < frames; f++) {
+        int a = src[(size_t)ncomp * (f - 1) + q], b = src[(size_t)ncomp * f + q];
+        if (b == a + 1)
+            continue;
+        (*taken)++;
+        if (len + 32 > cap) {
+            char *t = realloc(s, cap *= 2);
+            if (!t) {
+                free(s);
+                return NULL;
+            }
+            s = t;
+        }
+        /* the walk continued with b after a: the transition (a, b - 1) */
+        len += (size_t)snprintf(s + len, cap - len, "%s%d>%d", len ? " " : "", a, b - 1);
+    }
+    return s;
+}
+
+/* "cut_nodes" and "components" (bones, cut, parent, ref_bone, tc, transitions and their list) */
+static int add_components(cJSON *jo, const mdl_variations *v, const mdl_variations_stats *st)
+{
+    cJSON *cuts = cJSON_AddArrayToObject(jo, "cut_nodes");
+    cJSON *comps = cJSON_AddArrayToObject(jo, "components");
+    if (!cuts || !comps)
+        return -1;
+    cJSON_AddNumberToObject(jo, "component_count", st->components);
+    for (int c = 0; c < st->components; c++) {
+        mdl_variations_component k;
+        mdl_variations_get_component(v, c, &k);
+        if (k.cut >= 0)
+            cJSON_AddItemToArray(cuts, cJSON_CreateNumber(k.cut));
+        cJSON *e = cJSON_CreateObject(), *bones = cJSON_AddArrayToObject(e, "bones");
+        if (!e || !bones)
+            return -1;
+        for (int b = 0; b < k.nbones; b++)
+            cJSON_AddItemToArray(bones, cJSON_CreateNumber(k.bones ? k.bones[b] : b));
+        cJSON_AddNumberToObject(e, "cut", k.cut);
+        cJSON_AddNumberToObject(e, "parent", k.parent);
+        cJSON_AddNumberToObject(e, "ref_bone", k.ref_bone);
+        cJSON_AddNumberToObject(e, "tc", k.tc);
+        cJSON_AddNumberToObject(e, "transitions", k.transitions);
+        cJSON_AddNumberToObject(e, "alive_frames", k.alive_frames);
+        cJSON *tl = cJSON_AddArrayToObject(e, "transition_list");
+        for (int t = 0; tl && t < k.transitions; t++) {
+            int a, b;
+            double cost;
+            mdl_variations_component_transition(v, c, t, &a, &b, &cost);
+            cJSON *x = cJSON_CreateObject();
+            cJSON_AddNumberToObject(x, "from", a);
+            cJSON_AddNumberToObject(x, "to", b);
+            cJSON_AddNumberToObject(x, "cost", cost);
+            cJSON_AddItemToArray(tl, x);
+        }
+        cJSON_AddItemToArray(comps, e);
+    }
+    return 0;
+}
+
 int cmd_variations(int argc, char **argv)
 {
     const char *cmd = "variations", *modelp = NULL, *outdir = NULL, *addto = NULL;
     int count = 0, frames = 0, seed = 1, json = 0;
     mdl_variations_opts vo;
     mdl_variations_opts_default(&vo);
+    vo.components = 0;
     enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_JUMP, O_TEMP,
-           O_MINSEG, O_START, O_JSON, O_ADD };
+           O_MINSEG, O_START, O_JSON, O_ADD, O_COMP, O_TEF };
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},         {"count", 1, 0, O_COUNT},   {"frames", 1, 0, O_FRAMES},
         {"seed", 1, 0, O_SEED},           {"threshold", 1, 0, O_THRESH},
         {"tc-factor", 1, 0, O_TCF},       {"blend", 1, 0, O_BLEND},   {"jump-prob", 1, 0, O_JUMP},
         {"temperature", 1, 0, O_TEMP},    {"min-segment", 1, 0, O_MINSEG},
         {"start", 1, 0, O_START},         {"json", 0, 0, O_JSON},     {"help", 0, 0, 'h'},
-        {"add-to", 1, 0, O_ADD},
+        {"add-to", 1, 0, O_ADD},          {"components", 1, 0, O_COMP},
+        {"te-factor", 1, 0, O_TEF},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -178,6 +257,15 @@ int cmd_variations(int argc, char **argv)
         case O_START: if (cli_parse_int(cmd, "--start", optarg, &vo.start)) return CLI_EXIT_USAGE; break;
         case O_JSON: json = 1; break;
         case O_ADD: addto = optarg; break;
+        case O_COMP:
+            if (!strcmp(optarg, "auto"))
+                vo.components = 0;
+            else if (!strcmp(optarg, "1"))
+                vo.components = 1;
+            else
+                return cli_usage_error(cmd, "--components '%s': auto or 1", optarg);
+            break;
+        case O_TEF: if (cli_parse_double(cmd, "--te-factor", optarg, &vo.te_factor)) return CLI_EXIT_USAGE; break;
         case 'o': outdir = optarg; break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
         default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
@@ -194,9 +282,10 @@ int cmd_variations(int argc, char **argv)
     if (count > 100000 || frames > 10000000 || (double)count * frames > 1e9)
         return cli_usage_error(cmd, "--count x --frames is too large");
     if (vo.threshold < 0 || !(vo.tc_factor > 0) || vo.blend < 0 || !(vo.jump_prob >= 0) ||
-        vo.jump_prob > 1 || !(vo.temperature >= 0) || vo.min_segment < 0 || vo.start < -1)
+        vo.jump_prob > 1 || !(vo.temperature >= 0) || vo.min_segment < 0 || vo.start < -1 ||
+        !(vo.te_factor >= 0 && vo.te_factor <= 1))
         return cli_usage_error(cmd, "--threshold, --tc-factor, --blend, --jump-prob, "
-                               "--temperature, --min-segment or --start out of range");
+                               "--temperature, --min-segment, --start or --te-factor out of range");
 
     char err[MDL_ERR_LEN] = "";
     int status = CLI_EXIT_USAGE;
@@ -264,7 +353,8 @@ int cmd_variations(int argc, char **argv)
     }
     T = malloc((size_t)frames * st.bones * 12 * sizeof *T);
     V = malloc((size_t)frames * info.nv * 3 * sizeof *V);
-    src = malloc((size_t)frames * sizeof *src);
+    int ncomp = st.components;
+    src = malloc((size_t)frames * ncomp * sizeof *src);
     if (json) {
         jo = cJSON_CreateObject();
         jvars = cJSON_CreateArray();
@@ -290,10 +380,14 @@ int cmd_variations(int argc, char **argv)
         }
         double j = max_jump(V, info.nv, frames);
         worst = j > worst ? j : worst;
-        /* smoothness at the transitions: the largest vertex acceleration within 3 frames */
+        /* smoothness at the transitions (of any component): the largest vertex acceleration
+         * within 3 frames */
         double ta = 0;
         for (int f = 1; f < frames; f++) {
-            if (src[f] == src[f - 1] + 1)
+            int jumped = 0;
+            for (int q = 0; q < ncomp; q++)
+                jumped |= src[(size_t)ncomp * f + q] != src[(size_t)ncomp * (f - 1) + q] + 1;
+            if (!jumped)
                 continue;
             for (int g = f - 3; g <= f + 3; g++)
                 if (g >= 1 && g + 1 < frames) {
@@ -304,9 +398,18 @@ int cmd_variations(int argc, char **argv)
         worst_acc = ta > worst_acc ? ta : worst_acc;
         if (jvars) {
             int taken = 0;
-            for (int f = 1; f < frames; f++)
-                taken += src[f] != src[f - 1] + 1;
             cJSON *e = cJSON_CreateObject();
+            cJSON *ct = cJSON_AddArrayToObject(e, "components_taken");
+            for (int q = 0; q < ncomp; q++) {
+                char *seq = walk_taken(src, ncomp, q, frames, &taken);
+                if (!seq) {
+                    cJSON_Delete(e);
+                    status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
+                    goto out;
+                }
+                cJSON_AddItemToArray(ct, cJSON_CreateString(seq));
+                free(seq);
+            }
             cJSON_AddStringToObject(e, "file", path);
             cJSON_AddNumberToObject(e, "seed", (double)((unsigned)seed + (unsigned)k));
             cJSON_AddNumberToObject(e, "start", src[0]);
@@ -329,6 +432,11 @@ int cmd_variations(int argc, char **argv)
         cJSON_AddNumberToObject(jo, "max_adjacent", st.max_adjacent);
         cJSON_AddNumberToObject(jo, "tc", st.tc);
         cJSON_AddNumberToObject(jo, "transitions", st.transitions);
+        cJSON_AddNumberToObject(jo, "single_transitions", st.single_transitions);
+        if (add_components(jo, v, &st)) {
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
+            goto out;
+        }
         cJSON_AddNumberToObject(jo, "alive_frames", st.alive_frames);
         cJSON *tl = cJSON_AddArrayToObject(jo, "transition_list");
         for (int k = 0; tl && k < st.transitions; k++) {

@@ -13,6 +13,11 @@
  * then transition k with chance w_k / sum w, spliced by blend.c; at the end of the example (or
  * before a frame without a future) one must be taken. The start frame is o.start or drawn from the seed.
  * Targeted frames, collision avoidance and the overlap test of Sec. 3.4 are not implemented.
+ * Several components (Sec. 4, components.c): one walker per component on its own graph, each
+ * with its own seed (mdl__vwalk_comp_seed) but from one common start frame (alive in every
+ * component; the paper leaves the start open: a common one makes the merged animation begin as
+ * the input's frame does, and components whose graphs only join corresponding frames stay in
+ * phase), merged per frame by eq. 13-14 (merge.c) in the components' order.
  * A step allocates nothing; its state is the walker (mdl__vwalk), so several walks may run at
  * once over one read-only graph. */
 #include "variations/variations.h"
@@ -23,9 +28,71 @@
 #include <stdlib.h>
 #include <string.h>
 
+uint64_t mdl__vwalk_comp_seed(uint64_t seed, int c)
+{
+    /* splitmix64 of the pair */
+    uint64_t z = seed + 0x9e3779b97f4a7c15ull * (uint64_t)(c + 1);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+static int alive_everywhere(const struct mdl_variations *v, int f)
+{
+    if (v->ncomp < 2)
+        return v->alive[f];
+    for (int c = 0; c < v->ncomp; c++)
+        if (!v->comp[c].g->alive[f])
+            return 0;
+    return 1;
+}
+
+int mdl__vwalk_start(const struct mdl_variations *v, uint64_t seed)
+{
+    int start = v->o.start;
+    if (start >= 0 && alive_everywhere(v, start))
+        return start;
+    int n = 0;
+    for (int f = 0; f < v->nframes; f++)
+        n += alive_everywhere(v, f);
+    if (n < 1) /* no frame alive in all: the anchor's */
+        return v->ncomp > 1 ? mdl__vwalk_start(v->comp[0].g, seed) : 0;
+    uint64_t rng = seed ^ 0x9e3779b97f4a7c15ull;
+    int k = (int)(mdl__uniform(&rng) * n);
+    if (k >= n)
+        k = n - 1;
+    for (int f = 0; f < v->nframes; f++)
+        if (alive_everywhere(v, f) && k-- == 0)
+            return f;
+    return 0;
+}
+
 int mdl__vwalk_init(mdl__vwalk *w, const struct mdl_variations *v, uint64_t seed, char *err)
 {
     memset(w, 0, sizeof *w);
+    if (v->ncomp > 1) {
+        w->v = v;
+        w->ncomp = v->ncomp;
+        size_t nt = 0;
+        for (int c = 0; c < v->ncomp; c++)
+            nt += 12 * (size_t)v->comp[c].nb;
+        w->sub = mdl__calloc(v->ncomp, sizeof *w->sub);
+        w->Tc = mdl__calloc(nt, sizeof *w->Tc);
+        w->src = mdl__calloc(v->ncomp, sizeof *w->src);
+        if (!w->sub || !w->Tc || !w->src) {
+            mdl__vwalk_fini(w);
+            return mdl__err(err, -ENOMEM, "variations: out of memory");
+        }
+        for (int c = 0; c < v->ncomp; c++) {
+            int rc = mdl__vwalk_init(&w->sub[c], v->comp[c].g, seed, err);
+            if (rc) {
+                mdl__vwalk_fini(w);
+                return rc;
+            }
+        }
+        mdl__vwalk_reset(w, seed);
+        return 0;
+    }
     if (v->nalive < 1)
         return mdl__err(err, -ENOENT,
                         "variations: no transitions (T_c %.4g): the example cannot be extended", v->tc);
@@ -36,31 +103,64 @@ int mdl__vwalk_init(mdl__vwalk *w, const struct mdl_variations *v, uint64_t seed
     return 0;
 }
 
-void mdl__vwalk_reset(mdl__vwalk *w, uint64_t seed)
+void mdl__vwalk_reset_at(mdl__vwalk *w, uint64_t seed, int start)
 {
     const struct mdl_variations *v = w->v;
     mdl__vblend_reset(&w->b, v);
     w->rng = seed ^ 0x9e3779b97f4a7c15ull;
-    int start = v->o.start;
-    if (start < 0 || !v->alive[start]) {
-        int k = (int)(mdl__uniform(&w->rng) * v->nalive);
-        if (k >= v->nalive)
-            k = v->nalive - 1;
-        for (start = 0; start < v->nframes; start++)
-            if (v->alive[start] && k-- == 0)
-                break;
-    }
-    w->cur = start;
+    mdl__uniform(&w->rng); /* the draw of the start frame (mdl__vwalk_start) */
+    w->cur = start >= 0 && start < v->nframes && v->alive[start] ? start : mdl__vwalk_start(v, seed);
     w->seg = 0;
+}
+
+void mdl__vwalk_reset(mdl__vwalk *w, uint64_t seed)
+{
+    const struct mdl_variations *v = w->v;
+    int start = mdl__vwalk_start(v, seed);
+    if (w->ncomp > 1) {
+        for (int c = 0; c < w->ncomp; c++)
+            mdl__vwalk_reset_at(&w->sub[c], mdl__vwalk_comp_seed(seed, c), start);
+        return;
+    }
+    mdl__vwalk_reset_at(w, seed, start);
 }
 
 void mdl__vwalk_fini(mdl__vwalk *w)
 {
+    for (int c = 0; c < w->ncomp && w->sub; c++)
+        mdl__vwalk_fini(&w->sub[c]);
+    free(w->sub);
+    free(w->Tc);
+    free(w->src);
+    w->sub = NULL;
+    w->Tc = NULL;
+    w->src = NULL;
+    w->ncomp = 0;
     mdl__vblend_fini(&w->b);
+}
+
+/* several components: each steps, then the merge (eq. 13-14) in order */
+static int step_components(mdl__vwalk *w, double *T)
+{
+    const struct mdl_variations *v = w->v;
+    double *Tc = w->Tc;
+    for (int c = 0; c < w->ncomp; c++) {
+        const mdl__vcomp *k = &v->comp[c];
+        w->src[c] = mdl__vwalk_step(&w->sub[c], Tc);
+        if (c == 0)
+            for (int b = 0; b < k->nb; b++)
+                memcpy(T + 12 * (size_t)k->bones[b], Tc + 12 * (size_t)b, 12 * sizeof *T);
+        else
+            mdl__merge_frame(k, Tc, T);
+        Tc += 12 * (size_t)k->nb;
+    }
+    return w->src[0];
 }
 
 int mdl__vwalk_step(mdl__vwalk *w, double *T)
 {
+    if (w->ncomp > 1)
+        return step_components(w, T);
     const struct mdl_variations *v = w->v;
     int c = w->cur;
     mdl__vblend_pose(&w->b, v, c, T);
@@ -118,11 +218,76 @@ void mdl__variations_skin(const struct mdl_variations *v, const double *T, float
     }
 }
 
+/* several components, the whole animation at once: each component's walk, then Algorithm 1 in
+ * the components' order, with D_C (eq. 12) checked against its threshold; a component that does
+ * not match is walked again with another seed. Equal to the stepping walker's frames whenever the
+ * first seed matches (always with rigid bones). */
+static int walk_components(const mdl_variations *v, uint64_t seed, int frames, double *T,
+                           int *src, char *err)
+{
+    int nc = v->ncomp, rc = 0, start = mdl__vwalk_start(v, seed);
+    size_t nmax = 0;
+    for (int c = 0; c < nc; c++)
+        nmax = (size_t)v->comp[c].nb > nmax ? (size_t)v->comp[c].nb : nmax;
+    double *S = mdl__calloc(12 * nmax * (size_t)frames + 1, sizeof *S);
+    if (!S)
+        return mdl__err(err, -ENOMEM, "variations: out of memory for %d frames", frames);
+    for (int c = 0; c < nc && !rc; c++) {
+        const mdl__vcomp *k = &v->comp[c];
+        mdl__vwalk w;
+        rc = mdl__vwalk_init(&w, k->g, seed, err);
+        if (rc)
+            break;
+        int merged = 0;
+        double dc = 0, thr = 0;
+        for (int attempt = 0; attempt < 16 && !merged; attempt++) {
+            uint64_t s = mdl__vwalk_comp_seed(seed, c);
+            if (attempt > 0)
+                s = mdl__vwalk_comp_seed(s, attempt);
+            mdl__vwalk_reset_at(&w, s, start);
+            for (int f = 0; f < frames; f++) {
+                int in = mdl__vwalk_step(&w, S + 12 * (size_t)k->nb * f);
+                if (src)
+                    src[(size_t)nc * f + c] = in;
+            }
+            if (c == 0)
+                break;
+            dc = mdl__merge_cost(T + 12 * (size_t)k->cut, 12 * (size_t)v->nb,
+                                 S + 12 * (size_t)k->cut_local, 12 * (size_t)k->nb, frames, &thr);
+            merged = dc < thr || (dc == 0 && thr == 0);
+        }
+        mdl__vwalk_fini(&w);
+        if (c > 0 && !merged) {
+            rc = mdl__err(err, -EAGAIN, "variations: component %d (cut node %d): no walk whose cut "
+                          "node's stretch matches the anchor's (D_C %.4g >= %.4g, 16 seeds)",
+                          c, k->cut, dc, thr);
+            break;
+        }
+        for (int f = 0; f < frames; f++) {
+            double *Tf = T + 12 * (size_t)v->nb * f;
+            const double *Sf = S + 12 * (size_t)k->nb * f;
+            if (c == 0)
+                for (int b = 0; b < k->nb; b++)
+                    memcpy(Tf + 12 * (size_t)k->bones[b], Sf + 12 * (size_t)b, 12 * sizeof *T);
+            else
+                mdl__merge_frame(k, Sf, Tf);
+        }
+    }
+    free(S);
+    return rc;
+}
+
 int mdl_variations_walk(const mdl_variations *v, uint64_t seed, int frames, double *T, float *V,
                         int *src, char *err)
 {
     if (!v || frames < 0 || (frames > 0 && !T))
         return mdl__err(err, -EINVAL, "variations walk: bad arguments");
+    if (v->ncomp > 1) {
+        int rc = walk_components(v, seed, frames, T, src, err);
+        for (int f = 0; !rc && V && f < frames; f++)
+            mdl__variations_skin(v, T + 12 * (size_t)f * v->nb, V + 3 * (size_t)f * v->nv);
+        return rc;
+    }
     mdl__vwalk w;
     int rc = mdl__vwalk_init(&w, v, seed, err);
     if (rc)
