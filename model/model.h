@@ -511,6 +511,22 @@ double mdl_variations_cost(const mdl_variations *v, int i, int j);
  * -EAGAIN). -ENOENT when the graph has no frame a walk can go on for ever from (no transitions). */
 int mdl_variations_walk(const mdl_variations *v, uint64_t seed, int frames, double *T, float *V,
                         int *src, char *err);
+/* Skins one frame of bone transforms T (bones x 12) into V (nv x 3). */
+void mdl_variations_skin_frame(const mdl_variations *v, const double *T, float *V);
+/* Targeted frames (Sec. 3.4): input frame `in` must be shown at output frame `out`. */
+typedef struct mdl_variations_target {
+    int in, out;
+} mdl_variations_target;
+/* mdl_variations_walk meeting targets[0..nt) exactly (src[out] = in in every component): the
+ * walk's choices restricted to input frames from which the later targets can still be met.
+ * -EINVAL for a frame out of range or an output frame targeted twice, -ENOENT when no walk meets
+ * them (the transitions do not connect the frames in the time given). */
+int mdl_variations_walk_targets(const mdl_variations *v, uint64_t seed, int frames,
+                                const mdl_variations_target *targets, int nt, double *T, float *V,
+                                int *src, char *err);
+/* Sec. 3.4's overlap of two walks' src (frames x components, as mdl_variations_walk gives): the
+ * fraction of output frames where every component shows the same input frame (overlap.c). */
+double mdl_variations_overlap(const int *src_a, const int *src_b, int frames, int components);
 /* Makes the skin of m play an endless random walk (seed, o: NULL for defaults) on its example's
  * transition graph instead of looping the fitted frames: mdl_synth_create of the skin kind then
  * rebuilds the graph, and mdl_synth_frame at clock t shows the walk's frame t x fps (the

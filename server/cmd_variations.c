@@ -16,6 +16,8 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <stdint.h>
+#include <unistd.h>
 
 static const char usage_text[] =
     "usage: meshsteer variations --model SKIN.msm --count N --frames F [options] -o OUT_DIR\n"
@@ -182,6 +184,78 @@ static char *walk_taken(const int *src, int ncomp, int q, int frames, int *taken
     return s;
 }
 
+/* "IN:OUT,IN:OUT,..." appended to t (capacity cap), *n updated; -1 on a malformed list */
+static int parse_targets(const char *s, mdl_variations_target *t, int cap, int *n)
+{
+    while (*s) {
+        char *end;
+        long in = strtol(s, &end, 10);
+        if (end == s || *end != ':')
+            return -1;
+        s = end + 1;
+        long out = strtol(s, &end, 10);
+        if (end == s || (*end && *end != ',') || in < 0 || out < 0 || in > 1 << 30 || out > 1 << 30)
+            return -1;
+        if (*n >= cap)
+            return -1;
+        t[(*n)++] = (mdl_variations_target){(int)in, (int)out};
+        s = *end ? end + 1 : end;
+    }
+    return 0;
+}
+
+/* a chunk of variations walked in parallel: slot i walks seeds[i] into T, src */
+typedef struct walk_batch {
+    const mdl_variations *v;
+    int frames, nb, nc, nt;
+    const mdl_variations_target *t;
+    uint64_t *seeds;
+    double *T;
+    int *src, *rc;
+    char (*err)[MDL_ERR_LEN];
+} walk_batch;
+
+static void batch_body(void *ctx, int i, int worker)
+{
+    (void)worker;
+    walk_batch *b = ctx;
+    b->rc[i] = mdl_variations_walk_targets(b->v, b->seeds[i], b->frames, b->t, b->nt,
+                                           b->T + (size_t)i * b->frames * b->nb * 12, NULL,
+                                           b->src + (size_t)i * b->frames * b->nc, b->err[i]);
+}
+
+/* The bone file (docs/FORMATS.md): header, then per variation u64 seed, frames x bones x 12
+ * float32 (R row-major, t) and frames x components int32 input frames. */
+static int bones_header(FILE *f, int count, int frames, int bones, int comps, float fps)
+{
+    uint32_t h[6] = {1, (uint32_t)count, (uint32_t)frames, (uint32_t)bones, (uint32_t)comps, 0};
+    memcpy(&h[5], &fps, sizeof fps);
+    return fwrite("MSVB", 1, 4, f) == 4 && fwrite(h, sizeof h, 1, f) == 1 ? 0 : -1;
+}
+
+static int bones_record(FILE *f, uint64_t seed, const double *T, const int *src, int frames,
+                        int bones, int comps)
+{
+    if (fwrite(&seed, sizeof seed, 1, f) != 1)
+        return -1;
+    float buf[12 * 64];
+    size_t n = (size_t)frames * bones * 12;
+    for (size_t k = 0; k < n;) {
+        size_t m = n - k < sizeof buf / sizeof *buf ? n - k : sizeof buf / sizeof *buf;
+        for (size_t i = 0; i < m; i++)
+            buf[i] = (float)T[k + i];
+        if (fwrite(buf, sizeof *buf, m, f) != m)
+            return -1;
+        k += m;
+    }
+    for (size_t k = 0; k < (size_t)frames * comps; k++) {
+        int32_t s = src[k];
+        if (fwrite(&s, sizeof s, 1, f) != 1)
+            return -1;
+    }
+    return 0;
+}
+
 /* "cut_nodes" and "components" (bones, cut, parent, ref_bone, tc, transitions and their list) */
 static int add_components(cJSON *jo, const mdl_variations *v, const mdl_variations_stats *st)
 {
@@ -225,12 +299,16 @@ static int add_components(cJSON *jo, const mdl_variations *v, const mdl_variatio
 int cmd_variations(int argc, char **argv)
 {
     const char *cmd = "variations", *modelp = NULL, *outdir = NULL, *addto = NULL;
-    int count = 0, frames = 0, seed = 1, json = 0;
+    int count = 0, frames = 0, seed = 1, json = 0, end = -1, npc2 = -1, ntargets = 0;
+    int threads = (int)sysconf(_SC_NPROCESSORS_ONLN);
+    double max_overlap = 0.9;
+    mdl_variations_target targets[258];
     mdl_variations_opts vo;
     mdl_variations_opts_default(&vo);
     vo.components = 0;
     enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_JUMP, O_TEMP,
-           O_MINSEG, O_START, O_JSON, O_ADD, O_COMP, O_TEF };
+           O_MINSEG, O_START, O_JSON, O_ADD, O_COMP, O_TEF, O_END, O_TARGET, O_THREADS, O_PC2,
+           O_OVERLAP };
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},         {"count", 1, 0, O_COUNT},   {"frames", 1, 0, O_FRAMES},
         {"seed", 1, 0, O_SEED},           {"threshold", 1, 0, O_THRESH},
@@ -238,7 +316,8 @@ int cmd_variations(int argc, char **argv)
         {"temperature", 1, 0, O_TEMP},    {"min-segment", 1, 0, O_MINSEG},
         {"start", 1, 0, O_START},         {"json", 0, 0, O_JSON},     {"help", 0, 0, 'h'},
         {"add-to", 1, 0, O_ADD},          {"components", 1, 0, O_COMP},
-        {"te-factor", 1, 0, O_TEF},
+        {"te-factor", 1, 0, O_TEF},       {"end", 1, 0, O_END},       {"target", 1, 0, O_TARGET},
+        {"threads", 1, 0, O_THREADS},     {"pc2", 1, 0, O_PC2},       {"max-overlap", 1, 0, O_OVERLAP},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -265,6 +344,15 @@ int cmd_variations(int argc, char **argv)
             else
                 return cli_usage_error(cmd, "--components '%s': auto or 1", optarg);
             break;
+        case O_END: if (cli_parse_int(cmd, "--end", optarg, &end)) return CLI_EXIT_USAGE; break;
+        case O_TARGET:
+            if (parse_targets(optarg, targets, 256, &ntargets))
+                return cli_usage_error(cmd, "--target '%s': IN:OUT[,IN:OUT...] (frames >= 0, "
+                                       "256 at most)", optarg);
+            break;
+        case O_THREADS: if (cli_parse_int(cmd, "--threads", optarg, &threads)) return CLI_EXIT_USAGE; break;
+        case O_PC2: if (cli_parse_int(cmd, "--pc2", optarg, &npc2)) return CLI_EXIT_USAGE; break;
+        case O_OVERLAP: if (cli_parse_double(cmd, "--max-overlap", optarg, &max_overlap)) return CLI_EXIT_USAGE; break;
         case O_TEF: if (cli_parse_double(cmd, "--te-factor", optarg, &vo.te_factor)) return CLI_EXIT_USAGE; break;
         case 'o': outdir = optarg; break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
@@ -283,9 +371,11 @@ int cmd_variations(int argc, char **argv)
         return cli_usage_error(cmd, "--count x --frames is too large");
     if (vo.threshold < 0 || !(vo.tc_factor > 0) || vo.blend < 0 || !(vo.jump_prob >= 0) ||
         vo.jump_prob > 1 || !(vo.temperature >= 0) || vo.min_segment < 0 || vo.start < -1 ||
-        !(vo.te_factor >= 0 && vo.te_factor <= 1))
+        !(vo.te_factor >= 0 && vo.te_factor <= 1) || end < -1 || threads < 1 || npc2 < -1 ||
+        !(max_overlap >= 0 && max_overlap <= 1))
         return cli_usage_error(cmd, "--threshold, --tc-factor, --blend, --jump-prob, "
-                               "--temperature, --min-segment, --start or --te-factor out of range");
+                               "--temperature, --min-segment, --start, --te-factor, --end, --threads, --pc2 or "
+                               "--max-overlap out of range");
 
     char err[MDL_ERR_LEN] = "";
     int status = CLI_EXIT_USAGE;
@@ -317,6 +407,7 @@ int cmd_variations(int argc, char **argv)
     }
     mdl_set_blas_threads(1);
     struct timespec t0, t1;
+    double analysis_s = 0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     rc = mdl_variations_build(model, &vo, &v, err);
     if (rc) {
@@ -351,76 +442,176 @@ int cmd_variations(int argc, char **argv)
         status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", outdir, strerror(errno));
         goto out;
     }
-    T = malloc((size_t)frames * st.bones * 12 * sizeof *T);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    analysis_s = (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec);
+    /* --start and --end are targets at the first and last output frames */
+    if (vo.start >= 0)
+        targets[ntargets++] = (mdl_variations_target){vo.start, 0};
+    if (end >= 0)
+        targets[ntargets++] = (mdl_variations_target){end, frames - 1};
+    for (int k = 0; k < ntargets; k++)
+        if (targets[k].in >= nskinframes || targets[k].out >= frames) {
+            status = cli_fail(cmd, CLI_EXIT_USAGE, "target %d:%d: the skin has %d frames, the "
+                              "variations %d", targets[k].in, targets[k].out, nskinframes, frames);
+            goto out;
+        }
+    if (npc2 < 0 || npc2 > count)
+        npc2 = count;
+    int ncomp = st.components, nb = st.bones;
+    /* a chunk of variations walked at once: at most 64, and about 256 MB of bone transforms */
+    size_t per = (size_t)frames * nb * 12 * sizeof(double);
+    int chunk = (int)((256u << 20) / (per ? per : 1));
+    chunk = chunk < 1 ? 1 : chunk > 64 ? 64 : chunk;
+    chunk = chunk > count ? count : chunk;
+    T = malloc((size_t)chunk * per);
     V = malloc((size_t)frames * info.nv * 3 * sizeof *V);
-    int ncomp = st.components;
-    src = malloc((size_t)frames * ncomp * sizeof *src);
+    src = malloc((size_t)count * frames * ncomp * sizeof *src);
+    uint64_t *seeds = calloc(chunk, sizeof *seeds);
+    int *rcs = calloc(chunk, sizeof *rcs);
+    char(*errs)[MDL_ERR_LEN] = calloc(chunk, sizeof *errs);
+    char bpath[4096];
+    snprintf(bpath, sizeof bpath, "%s/variations.bones", outdir);
+    FILE *bf = fopen(bpath, "wb");
     if (json) {
         jo = cJSON_CreateObject();
         jvars = cJSON_CreateArray();
     }
-    if (!T || !V || !src || (json && (!jo || !jvars))) {
-        status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory for %d frames", frames);
+    if (!T || !V || !src || !seeds || !rcs || !errs || !bf || (json && (!jo || !jvars)) ||
+        bones_header(bf, count, frames, nb, ncomp, info.fps > 0 ? (float)info.fps : 30.0f)) {
+        if (bf)
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory for %d frames", frames);
+        else
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", bpath, strerror(errno));
+        free(seeds);
+        free(rcs);
+        free(errs);
+        if (bf)
+            fclose(bf);
         goto out;
     }
     double ej, ea, eamax, worst = 0, worst_acc = 0;
     example_motion(model, &ej, &ea, &eamax);
-    for (int k = 0; k < count; k++) {
-        rc = mdl_variations_walk(v, (uint64_t)(unsigned)seed + (uint64_t)k, frames, T, V, src, err);
-        if (rc) {
-            status = rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
-            cli_fail(cmd, status, "%s", err);
-            goto out;
-        }
-        char path[4096];
-        snprintf(path, sizeof path, "%s/variation_%03d.pc2", outdir, k);
-        if (mdl_pc2_write(path, V, info.nv, frames, 0.0f, 1.0f, err)) {
-            status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
-            goto out;
-        }
-        double j = max_jump(V, info.nv, frames);
-        worst = j > worst ? j : worst;
-        /* smoothness at the transitions (of any component): the largest vertex acceleration
-         * within 3 frames */
-        double ta = 0;
-        for (int f = 1; f < frames; f++) {
-            int jumped = 0;
-            for (int q = 0; q < ncomp; q++)
-                jumped |= src[(size_t)ncomp * f + q] != src[(size_t)ncomp * (f - 1) + q] + 1;
-            if (!jumped)
-                continue;
-            for (int g = f - 3; g <= f + 3; g++)
-                if (g >= 1 && g + 1 < frames) {
-                    double a = accel_at(V, info.nv, g);
-                    ta = a > ta ? a : ta;
+    cli_pool pool = {threads};
+    walk_batch bt = {v, frames, nb, ncomp, ntargets, targets, seeds, T, NULL, rcs, errs};
+    uint64_t next_seed = (uint64_t)(unsigned)seed + (uint64_t)count;
+    int redrawn = 0, over = 0, met = 0, bad = 0;
+    for (int k0 = 0; k0 < count && !bad; k0 += chunk) {
+        int n = count - k0 < chunk ? count - k0 : chunk;
+        for (int i = 0; i < n; i++)
+            seeds[i] = (uint64_t)(unsigned)seed + (uint64_t)(k0 + i);
+        bt.src = src + (size_t)k0 * frames * ncomp;
+        if (threads > 1)
+            cli_parallel_for(&pool, n, batch_body, &bt);
+        else
+            for (int i = 0; i < n; i++)
+                batch_body(&bt, i, 0);
+        for (int i = 0; i < n; i++) {
+            int k = k0 + i;
+            double *Tk = T + (size_t)i * frames * nb * 12;
+            int *sk = src + (size_t)k * frames * ncomp;
+            /* Sec. 3.4's overlap test against the earlier variations, in order (so the result
+             * does not depend on --threads): a repeat is walked again with the next seed */
+            double ov = 0;
+            for (int tries = 0; !rcs[i]; tries++) {
+                ov = 0;
+                for (int l = 0; l < k; l++) {
+                    double o = mdl_variations_overlap(sk, src + (size_t)l * frames * ncomp, frames, ncomp);
+                    ov = o > ov ? o : ov;
                 }
-        }
-        worst_acc = ta > worst_acc ? ta : worst_acc;
-        if (jvars) {
-            int taken = 0;
-            cJSON *e = cJSON_CreateObject();
-            cJSON *ct = cJSON_AddArrayToObject(e, "components_taken");
-            for (int q = 0; q < ncomp; q++) {
-                char *seq = walk_taken(src, ncomp, q, frames, &taken);
-                if (!seq) {
-                    cJSON_Delete(e);
-                    status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
-                    goto out;
-                }
-                cJSON_AddItemToArray(ct, cJSON_CreateString(seq));
-                free(seq);
+                if (ov <= max_overlap || tries >= 20)
+                    break;
+                seeds[i] = next_seed++;
+                redrawn++;
+                rcs[i] = mdl_variations_walk_targets(v, seeds[i], frames, targets, ntargets, Tk,
+                                                     NULL, sk, errs[i]);
             }
-            cJSON_AddStringToObject(e, "file", path);
-            cJSON_AddNumberToObject(e, "seed", (double)((unsigned)seed + (unsigned)k));
-            cJSON_AddNumberToObject(e, "start", src[0]);
-            cJSON_AddNumberToObject(e, "transitions_taken", taken);
-            cJSON_AddNumberToObject(e, "max_jump", j);
-            cJSON_AddNumberToObject(e, "max_jump_ratio", ej > 0 ? j / ej : 0);
-            cJSON_AddNumberToObject(e, "transition_max_accel", ta);
-            cJSON_AddNumberToObject(e, "transition_accel_ratio", ea > 0 ? ta / ea : 0);
-            cJSON_AddItemToArray(jvars, e);
+            if (rcs[i]) {
+                status = rcs[i] == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
+                cli_fail(cmd, status, "%s", errs[i]);
+                bad = 1;
+                break;
+            }
+            over += ov > max_overlap;
+            int ok = 1;
+            for (int t = 0; t < ntargets; t++)
+                for (int q = 0; q < ncomp; q++)
+                    ok &= sk[(size_t)ncomp * targets[t].out + q] == targets[t].in;
+            met += ok;
+            if (bones_record(bf, seeds[i], Tk, sk, frames, nb, ncomp)) {
+                status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", bpath, strerror(errno));
+                bad = 1;
+                break;
+            }
+            if (k >= npc2)
+                continue;
+            for (int f = 0; f < frames; f++)
+                mdl_variations_skin_frame(v, Tk + (size_t)f * nb * 12, V + 3 * (size_t)f * info.nv);
+            char path[4096];
+            snprintf(path, sizeof path, "%s/variation_%03d.pc2", outdir, k);
+            if (mdl_pc2_write(path, V, info.nv, frames, 0.0f, 1.0f, err)) {
+                status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
+                bad = 1;
+                break;
+            }
+            double j = max_jump(V, info.nv, frames);
+            worst = j > worst ? j : worst;
+            /* smoothness at the transitions (of any component): the largest vertex acceleration
+             * within 3 frames */
+            double ta = 0;
+            for (int f = 1; f < frames; f++) {
+                int jumped = 0;
+                for (int q = 0; q < ncomp; q++)
+                    jumped |= sk[(size_t)ncomp * f + q] != sk[(size_t)ncomp * (f - 1) + q] + 1;
+                if (!jumped)
+                    continue;
+                for (int g = f - 3; g <= f + 3; g++)
+                    if (g >= 1 && g + 1 < frames) {
+                        double a = accel_at(V, info.nv, g);
+                        ta = a > ta ? a : ta;
+                    }
+            }
+            worst_acc = ta > worst_acc ? ta : worst_acc;
+            if (jvars) {
+                int taken = 0;
+                cJSON *e = cJSON_CreateObject();
+                cJSON *ct = cJSON_AddArrayToObject(e, "components_taken");
+                for (int q = 0; q < ncomp; q++) {
+                    char *seq = walk_taken(sk, ncomp, q, frames, &taken);
+                    if (!seq) {
+                        cJSON_Delete(e);
+                        e = NULL;
+                        break;
+                    }
+                    cJSON_AddItemToArray(ct, cJSON_CreateString(seq));
+                    free(seq);
+                }
+                if (!e) {
+                    status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
+                    bad = 1;
+                    break;
+                }
+                cJSON_AddStringToObject(e, "file", path);
+                cJSON_AddNumberToObject(e, "seed", (double)seeds[i]);
+                cJSON_AddNumberToObject(e, "start", sk[0]);
+                cJSON_AddNumberToObject(e, "transitions_taken", taken);
+                cJSON_AddNumberToObject(e, "overlap", ov);
+                cJSON_AddNumberToObject(e, "max_jump", j);
+                cJSON_AddNumberToObject(e, "max_jump_ratio", ej > 0 ? j / ej : 0);
+                cJSON_AddNumberToObject(e, "transition_max_accel", ta);
+                cJSON_AddNumberToObject(e, "transition_accel_ratio", ea > 0 ? ta / ea : 0);
+                cJSON_AddItemToArray(jvars, e);
+            }
         }
     }
+    free(seeds);
+    free(rcs);
+    free(errs);
+    if (fclose(bf) != 0 && !bad) {
+        status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", bpath, strerror(errno));
+        bad = 1;
+    }
+    if (bad)
+        goto out;
     clock_gettime(CLOCK_MONOTONIC, &t1);
     if (jo) {
         cJSON_AddNumberToObject(jo, "bones", st.bones);
@@ -461,6 +652,15 @@ int cmd_variations(int argc, char **argv)
         cJSON_AddNumberToObject(jo, "transition_accel_ratio", ea > 0 ? worst_acc / ea : 0);
         cJSON_AddNumberToObject(jo, "synth_s",
                                 (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec));
+        cJSON_AddNumberToObject(jo, "analysis_s", analysis_s);
+        cJSON_AddNumberToObject(jo, "threads", threads);
+        cJSON_AddNumberToObject(jo, "targets", ntargets);
+        cJSON_AddNumberToObject(jo, "targets_met", met);
+        cJSON_AddNumberToObject(jo, "max_overlap", max_overlap);
+        cJSON_AddNumberToObject(jo, "overlap_redrawn", redrawn);
+        cJSON_AddNumberToObject(jo, "overlap_kept_over", over);
+        cJSON_AddNumberToObject(jo, "pc2_written", npc2);
+        cJSON_AddStringToObject(jo, "bones_file", bpath);
         cJSON_AddItemToObject(jo, "variations", jvars);
         jvars = NULL;
         int pr = cli_print_json(jo);

@@ -158,6 +158,14 @@ int mdl__vwalk_start(const struct mdl_variations *v, uint64_t seed);
 void mdl__vwalk_reset_at(mdl__vwalk *w, uint64_t seed, int start);
 /* Writes the next output frame's bone transforms (nb x 12) and returns its input frame. */
 int mdl__vwalk_step(mdl__vwalk *w, double *T);
+/* The same for a single-component walker whose next input frame must have ok[n] != 0 (nframes;
+ * NULL: any). The caller guarantees that some successor is allowed (target.c). */
+int mdl__vwalk_step_to(mdl__vwalk *w, double *T, const uint8_t *ok);
+/* The batch walk of frames output frames (walk.c), per component, next input frames restricted
+ * by masks[c] (frames x the component's nframes, 1 = allowed at that output frame; masks or a
+ * mask NULL: free) from input frame start (-1: the seed's); src frames x components. */
+int mdl__variations_walk_masked(const struct mdl_variations *v, uint64_t seed, int frames,
+                                uint8_t *const *masks, int start, double *T, int *src, char *err);
 /* Skins one frame: V (nv x 3) from bone transforms T (nb x 12). */
 void mdl__variations_skin(const struct mdl_variations *v, const double *T, float *V);
 

@@ -161,16 +161,27 @@ int mdl__vwalk_step(mdl__vwalk *w, double *T)
 {
     if (w->ncomp > 1)
         return step_components(w, T);
+    return mdl__vwalk_step_to(w, T, NULL);
+}
+
+/* may the walk go on to input frame n */
+static int open_to(const struct mdl_variations *v, const uint8_t *ok, int n)
+{
+    return n < v->nframes && v->alive[n] && (!ok || ok[n]);
+}
+
+int mdl__vwalk_step_to(mdl__vwalk *w, double *T, const uint8_t *ok)
+{
     const struct mdl_variations *v = w->v;
     int c = w->cur;
     mdl__vblend_pose(&w->b, v, c, T);
-    int cont = c + 1 < v->nframes && v->alive[c + 1], open = 0;
+    int cont = open_to(v, ok, c + 1), open = 0;
     for (int k = v->off[c]; k < v->off[c + 1]; k++)
-        open += v->alive[v->to[k] + 1];
+        open += open_to(v, ok, v->to[k] + 1);
     /* the open transitions' weights exp(-D / sigma) (1 for temperature 0) */
     double sigma = v->o.temperature * v->max_adjacent, sum = 0, best = 0;
     for (int k = v->off[c]; k < v->off[c + 1]; k++)
-        if (v->alive[v->to[k] + 1]) {
+        if (open_to(v, ok, v->to[k] + 1)) {
             double wk = sigma > 0 ? exp(-v->cost[k] / sigma) : 1;
             sum += wk;
             best = wk > best ? wk : best;
@@ -183,7 +194,7 @@ int mdl__vwalk_step(mdl__vwalk *w, double *T)
         double u = mdl__uniform(&w->rng) * sum;
         int j = -1;
         for (int k = v->off[c]; k < v->off[c + 1]; k++)
-            if (v->alive[v->to[k] + 1]) {
+            if (open_to(v, ok, v->to[k] + 1)) {
                 j = v->to[k];
                 u -= sigma > 0 ? exp(-v->cost[k] / sigma) : 1;
                 if (u <= 0)
@@ -218,35 +229,40 @@ void mdl__variations_skin(const struct mdl_variations *v, const double *T, float
     }
 }
 
-/* several components, the whole animation at once: each component's walk, then Algorithm 1 in
- * the components' order, with D_C (eq. 12) checked against its threshold; a component that does
- * not match is walked again with another seed. Equal to the stepping walker's frames whenever the
- * first seed matches (always with rigid bones). */
-static int walk_components(const mdl_variations *v, uint64_t seed, int frames, double *T,
-                           int *src, char *err)
+/* The whole animation at once, per component (one component: the skin's graph as component 0):
+ * each component's walk, next input frames restricted by its masks (target.c; NULL: free), from
+ * the common start frame; then Algorithm 1 in the components' order, with D_C (eq. 12) checked
+ * against its threshold, a component that does not match walked again with another seed. Equal to
+ * the stepping walker's frames whenever the first seed matches (always with rigid bones). */
+int mdl__variations_walk_masked(const struct mdl_variations *v, uint64_t seed, int frames,
+                                uint8_t *const *masks, int start, double *T, int *src, char *err)
 {
-    int nc = v->ncomp, rc = 0, start = mdl__vwalk_start(v, seed);
-    size_t nmax = 0;
-    for (int c = 0; c < nc; c++)
-        nmax = (size_t)v->comp[c].nb > nmax ? (size_t)v->comp[c].nb : nmax;
-    double *S = mdl__calloc(12 * nmax * (size_t)frames + 1, sizeof *S);
-    if (!S)
+    int nc = v->ncomp > 1 ? v->ncomp : 1, rc = 0;
+    if (start < 0)
+        start = mdl__vwalk_start(v, seed);
+    size_t nmax = v->nb;
+    double *S = nc > 1 ? mdl__calloc(12 * nmax * (size_t)frames + 1, sizeof *S) : NULL;
+    if (nc > 1 && !S)
         return mdl__err(err, -ENOMEM, "variations: out of memory for %d frames", frames);
     for (int c = 0; c < nc && !rc; c++) {
-        const mdl__vcomp *k = &v->comp[c];
+        const mdl__vcomp *k = nc > 1 ? &v->comp[c] : NULL;
+        const struct mdl_variations *g = k ? k->g : v;
+        double *out = k ? S : T;
+        const uint8_t *mask = masks ? masks[c] : NULL;
         mdl__vwalk w;
-        rc = mdl__vwalk_init(&w, k->g, seed, err);
+        rc = mdl__vwalk_init(&w, g, seed, err);
         if (rc)
             break;
         int merged = 0;
         double dc = 0, thr = 0;
         for (int attempt = 0; attempt < 16 && !merged; attempt++) {
-            uint64_t s = mdl__vwalk_comp_seed(seed, c);
+            uint64_t s = k ? mdl__vwalk_comp_seed(seed, c) : seed;
             if (attempt > 0)
                 s = mdl__vwalk_comp_seed(s, attempt);
             mdl__vwalk_reset_at(&w, s, start);
             for (int f = 0; f < frames; f++) {
-                int in = mdl__vwalk_step(&w, S + 12 * (size_t)k->nb * f);
+                const uint8_t *ok = mask && f + 1 < frames ? mask + (size_t)g->nframes * (f + 1) : NULL;
+                int in = mdl__vwalk_step_to(&w, out + 12 * (size_t)g->nb * f, ok);
                 if (src)
                     src[(size_t)nc * f + c] = in;
             }
@@ -263,7 +279,7 @@ static int walk_components(const mdl_variations *v, uint64_t seed, int frames, d
                           c, k->cut, dc, thr);
             break;
         }
-        for (int f = 0; f < frames; f++) {
+        for (int f = 0; k && f < frames; f++) {
             double *Tf = T + 12 * (size_t)v->nb * f;
             const double *Sf = S + 12 * (size_t)k->nb * f;
             if (c == 0)
@@ -277,29 +293,13 @@ static int walk_components(const mdl_variations *v, uint64_t seed, int frames, d
     return rc;
 }
 
+void mdl_variations_skin_frame(const mdl_variations *v, const double *T, float *V)
+{
+    mdl__variations_skin(v, T, V);
+}
+
 int mdl_variations_walk(const mdl_variations *v, uint64_t seed, int frames, double *T, float *V,
                         int *src, char *err)
 {
-    if (!v || frames < 0 || (frames > 0 && !T))
-        return mdl__err(err, -EINVAL, "variations walk: bad arguments");
-    if (v->ncomp > 1) {
-        int rc = walk_components(v, seed, frames, T, src, err);
-        for (int f = 0; !rc && V && f < frames; f++)
-            mdl__variations_skin(v, T + 12 * (size_t)f * v->nb, V + 3 * (size_t)f * v->nv);
-        return rc;
-    }
-    mdl__vwalk w;
-    int rc = mdl__vwalk_init(&w, v, seed, err);
-    if (rc)
-        return rc;
-    for (int f = 0; f < frames; f++) {
-        double *Tf = T + 12 * (size_t)f * v->nb;
-        int c = mdl__vwalk_step(&w, Tf);
-        if (src)
-            src[f] = c;
-        if (V)
-            mdl__variations_skin(v, Tf, V + 3 * (size_t)f * v->nv);
-    }
-    mdl__vwalk_fini(&w);
-    return 0;
+    return mdl_variations_walk_targets(v, seed, frames, NULL, 0, T, V, src, err);
 }

@@ -57,6 +57,28 @@ cmp -s "$dir/a/variation_001.pc2" "$dir/b/variation_001.pc2" || fail "seed 6 gav
 ! cmp -s "$dir/a/variation_000.pc2" "$dir/a/variation_001.pc2" || fail "seeds 5 and 6 gave one animation"
 ! cmp -s "$dir/a/variation_001.pc2" "$dir/a/variation_002.pc2" || fail "seeds 6 and 7 gave one animation"
 
+# the bone file: header, then per variation seed, bones x 12 float32 per frame, components int32
+# per frame; identical for any --threads; --pc2 0 writes no meshes
+bsize() { echo $((28 + $1 * (8 + $2 * $3 * 48 + $2 * $4 * 4))); }
+[ "$(stat -c %s "$dir/a/variations.bones")" = "$(bsize 3 100 8 "$(json_num "$dir/a.json" component_count)")" ] \
+    || fail "variations.bones is not 3 x 100 frames of 8 bones"
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 9 --frames 100 --seed 5 --threads 1 --pc2 0 -o "$dir/t1"
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 9 --frames 100 --seed 5 --threads 2 --pc2 0 -o "$dir/t2"
+cmp -s "$dir/t1/variations.bones" "$dir/t2/variations.bones" || fail "--threads 1 and 2 differ"
+cmp -s <(head -c "$(stat -c %s "$dir/b/variations.bones")" "$dir/t1/variations.bones" | tail -c +29 | head -c 1000) \
+       <(tail -c +29 "$dir/b/variations.bones" | head -c 1000) || fail "the first variation depends on --count"
+! ls "$dir/t1"/*.pc2 >/dev/null 2>&1 || fail "--pc2 0 wrote meshes"
+# targeted frames: --start, --end and --target met exactly in every variation (the example
+# loops every 75 frames and its transitions keep that phase: input = 10 + output mod 75)
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 6 --frames 120 --start 10 --end 54 \
+    --target 70:60 -o "$dir/tg" --json
+[ "$(json_num "$dir/out" targets)" = 3 ] || fail "targets: $(json_num "$dir/out" targets), not 3"
+[ "$(json_num "$dir/out" targets_met)" = 6 ] || fail "targets met by $(json_num "$dir/out" targets_met) of 6"
+echo "example (period 75): --start 10 --end 54 --target 70:60 met by 6 of 6 variations"
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --start 10 --end 40 -o "$dir/tg"
+grep -q "no walk meets the targets" "$dir/err" || fail "an impossible target is not refused"
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --target 3x -o "$dir/tg"
+
 # --add-to: the skin beside a steering model walks (the daemon's idle source); a steering model
 # alone is refused
 expect_status 2 "$ms" variations --add-to "$dir/steer.msm"
