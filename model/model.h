@@ -457,11 +457,13 @@ typedef struct mdl_variations_opts {
     int components;     /* Sec. 4: 1 one component; 0 (auto) the blocks between the cut nodes of
                            the bone graph, synthesised apart and merged (Algorithm 1) */
     double te_factor;   /* Sec. 4.1: bone graph edges below te_factor x max d_ij are dropped */
+    int ground;         /* Sec. 5: the reference bone moved only on the ground plane (a turn
+                           about the up axis y and a horizontal shift) at a splice */
 } mdl_variations_opts;
 
 /* svd_tol 0.005, tc_factor 1/40 (the paper prints 40; docs/MODEL.md says why not), threshold 0,
  * min_gap 3, blend 8, jump_prob 0.2, temperature 0.1, min_segment 8, start -1, components 1,
- * te_factor 0.1 (the paper's values where it gives them). */
+ * te_factor 0.1, ground 0 (the paper's values where it gives them). */
 void mdl_variations_opts_default(mdl_variations_opts *o);
 
 typedef struct mdl_variations_stats {

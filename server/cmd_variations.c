@@ -107,9 +107,19 @@ static double accel_at(const float *V, int nv, int f)
  * between consecutive frames, and the 99th percentile of the vertex accelerations over all
  * vertices and interior frames (the issue's smoothness reference) and their maximum. 0 when not
  * computable. */
-static void example_motion(const mdl_model *m, double *jump, double *p99, double *amax)
+static double lowest_y(const float *V, int nv)
+{
+    double lo = INFINITY;
+    for (int i = 0; i < nv; i++)
+        lo = V[3 * (size_t)i + 1] < lo ? V[3 * (size_t)i + 1] : lo;
+    return lo;
+}
+
+static void example_motion(const mdl_model *m, double *jump, double *p99, double *amax,
+                           double floor_range[2])
 {
     *jump = *p99 = *amax = 0;
+    floor_range[0] = floor_range[1] = 0;
     int nb, K, N;
     const int *bone;
     const double *w, *T;
@@ -138,6 +148,13 @@ static void example_motion(const mdl_model *m, double *jump, double *p99, double
             }
         }
     *jump = max_jump(V, info.nv, N);
+    floor_range[0] = INFINITY;
+    floor_range[1] = -INFINITY;
+    for (int f = 0; f < N; f++) {
+        double lo = lowest_y(V + 3 * (size_t)f * info.nv, info.nv);
+        floor_range[0] = lo < floor_range[0] ? lo : floor_range[0];
+        floor_range[1] = lo > floor_range[1] ? lo : floor_range[1];
+    }
     size_t n = 0;
     for (int f = 1; f + 1 < N; f++)
         for (int i = 0; i < info.nv; i++) {
@@ -308,7 +325,7 @@ int cmd_variations(int argc, char **argv)
     vo.components = 0;
     enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_JUMP, O_TEMP,
            O_MINSEG, O_START, O_JSON, O_ADD, O_COMP, O_TEF, O_END, O_TARGET, O_THREADS, O_PC2,
-           O_OVERLAP };
+           O_OVERLAP, O_GROUND };
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},         {"count", 1, 0, O_COUNT},   {"frames", 1, 0, O_FRAMES},
         {"seed", 1, 0, O_SEED},           {"threshold", 1, 0, O_THRESH},
@@ -317,7 +334,7 @@ int cmd_variations(int argc, char **argv)
         {"start", 1, 0, O_START},         {"json", 0, 0, O_JSON},     {"help", 0, 0, 'h'},
         {"add-to", 1, 0, O_ADD},          {"components", 1, 0, O_COMP},
         {"te-factor", 1, 0, O_TEF},       {"end", 1, 0, O_END},       {"target", 1, 0, O_TARGET},
-        {"threads", 1, 0, O_THREADS},     {"pc2", 1, 0, O_PC2},       {"max-overlap", 1, 0, O_OVERLAP},
+        {"ground", 0, 0, O_GROUND},       {"threads", 1, 0, O_THREADS},     {"pc2", 1, 0, O_PC2},       {"max-overlap", 1, 0, O_OVERLAP},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -344,6 +361,7 @@ int cmd_variations(int argc, char **argv)
             else
                 return cli_usage_error(cmd, "--components '%s': auto or 1", optarg);
             break;
+        case O_GROUND: vo.ground = 1; break;
         case O_END: if (cli_parse_int(cmd, "--end", optarg, &end)) return CLI_EXIT_USAGE; break;
         case O_TARGET:
             if (parse_targets(optarg, targets, 256, &ntargets))
@@ -489,8 +507,8 @@ int cmd_variations(int argc, char **argv)
             fclose(bf);
         goto out;
     }
-    double ej, ea, eamax, worst = 0, worst_acc = 0;
-    example_motion(model, &ej, &ea, &eamax);
+    double ej, ea, eamax, worst = 0, worst_acc = 0, floor_range[2], worst_floor = 0;
+    example_motion(model, &ej, &ea, &eamax, floor_range);
     cli_pool pool = {threads};
     walk_batch bt = {v, frames, nb, ncomp, ntargets, targets, seeds, T, NULL, rcs, errs};
     uint64_t next_seed = (uint64_t)(unsigned)seed + (uint64_t)count;
@@ -555,6 +573,14 @@ int cmd_variations(int argc, char **argv)
             }
             double j = max_jump(V, info.nv, frames);
             worst = j > worst ? j : worst;
+            /* the lowest vertex per frame against the example's range of it */
+            double fe = 0;
+            for (int f = 0; f < frames; f++) {
+                double lo = lowest_y(V + 3 * (size_t)f * info.nv, info.nv);
+                double d = lo < floor_range[0] ? floor_range[0] - lo : lo > floor_range[1] ? lo - floor_range[1] : 0;
+                fe = d > fe ? d : fe;
+            }
+            worst_floor = fe > worst_floor ? fe : worst_floor;
             /* smoothness at the transitions (of any component): the largest vertex acceleration
              * within 3 frames */
             double ta = 0;
@@ -596,6 +622,7 @@ int cmd_variations(int argc, char **argv)
                 cJSON_AddNumberToObject(e, "transitions_taken", taken);
                 cJSON_AddNumberToObject(e, "overlap", ov);
                 cJSON_AddNumberToObject(e, "max_jump", j);
+                cJSON_AddNumberToObject(e, "floor_excursion", fe);
                 cJSON_AddNumberToObject(e, "max_jump_ratio", ej > 0 ? j / ej : 0);
                 cJSON_AddNumberToObject(e, "transition_max_accel", ta);
                 cJSON_AddNumberToObject(e, "transition_accel_ratio", ea > 0 ? ta / ea : 0);
@@ -653,6 +680,9 @@ int cmd_variations(int argc, char **argv)
         cJSON_AddNumberToObject(jo, "synth_s",
                                 (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec));
         cJSON_AddNumberToObject(jo, "analysis_s", analysis_s);
+        cJSON_AddNumberToObject(jo, "example_floor_min", floor_range[0]);
+        cJSON_AddNumberToObject(jo, "example_floor_max", floor_range[1]);
+        cJSON_AddNumberToObject(jo, "floor_excursion", worst_floor);
         cJSON_AddNumberToObject(jo, "threads", threads);
         cJSON_AddNumberToObject(jo, "targets", ntargets);
         cJSON_AddNumberToObject(jo, "targets_met", met);

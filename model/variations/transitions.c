@@ -345,7 +345,7 @@ int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_v
     if (!(v->o.svd_tol >= 0 && v->o.svd_tol < 1) || v->o.min_gap < 0 || v->o.blend < 0 ||
         !(v->o.jump_prob >= 0 && v->o.jump_prob <= 1) || !(v->o.temperature >= 0) || v->o.min_segment < 0 ||
         v->o.start >= N || !(v->o.tc_factor > 0 || v->o.threshold > 0) ||
-        v->o.components < 0 || v->o.components > 1 || !(v->o.te_factor >= 0 && v->o.te_factor <= 1)) {
+        v->o.components < 0 || v->o.components > 1 || v->o.ground < 0 || v->o.ground > 1 || !(v->o.te_factor >= 0 && v->o.te_factor <= 1)) {
         mdl_variations_destroy(v);
         return mdl__err(err, -EINVAL, "variations: options out of range");
     }
@@ -417,6 +417,7 @@ int mdl_variations_attach(mdl_model *m, const mdl_variations_opts *o, uint64_t s
     /* the SKIN trailer stores no component options: the idle source walks one component */
     k->vars.components = 1;
     k->vars.te_factor = 0.1;
+    k->vars.ground = 0;
     k->vars_seed = seed;
     return 0;
 }

@@ -121,6 +121,8 @@ typedef struct mdl__vblend {
     double *om;      /* nb x 3: offset rotations Phi at the last transition */
     double *dt;      /* nb x 3: offset translations of the bone's centre */
     int since;       /* output frames since the last transition (>= blend: no offset) */
+    double rom[3], rdt[3]; /* o.ground: the reference bone's offset rotation (Phi, about its
+                              centre) and translation at the last splice, let go over the window */
 } mdl__vblend;
 
 int mdl__vblend_init(mdl__vblend *b, const struct mdl_variations *v);

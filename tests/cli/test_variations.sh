@@ -4,7 +4,10 @@
 # the same for the same seed and differ across seeds, with no frame-to-frame vertex jump above 3x
 # the example's own, and the blend lowers the acceleration at transitions; --add-to makes a
 # model's skin walk; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames
-# with the same bound. Usage: test_variations.sh MESHSTEER SRC DATA
+# with the same bound, one component joining only corresponding frames, components auto walking
+# the tail apart (contact sheets of 4 variations: $MESHSTEER_SHEETS or the scratch directory),
+# targeted frames, --threads, the bone file; then samba's --ground, targets and smoothness.
+# Usage: test_variations.sh MESHSTEER SRC DATA
 set -euo pipefail
 ms=$1 src=$2 data=$3
 source "$(dirname "$0")/lib.sh"
@@ -123,4 +126,26 @@ for k in 000 001 002 003; do
         --frames 0:336:42 --cols 8 --size 160 -o "$sheets/horse_variation_$k.png"
 done
 echo "horse: contact sheets of 4 variations (8 frames each, 42 apart) in $sheets"
+# samba (40 bones; its transitions let a 600-frame walk from frame 20 end only at frames 140-170):
+# --ground keeps the lowest vertex of every frame within 2 cm of the example's
+# range of it, --start/--end are met exactly, and the transitions are smooth (the largest vertex
+# acceleration within 3 frames of one <= 1.5 x the example's 99th percentile)
+samba=$data/meshes/samba
+if [ ! -d "$samba" ]; then echo "skip: $samba not found"; echo "variations_cli: ok"; exit 0; fi
+expect_status 0 "$ms" skin --mesh "$samba/samba.pc2" --rest "$samba/rest.obj" --bones 40 -o "$dir/samba.msm"
+expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 -o "$dir/s0" --json
+drift=$(json_num "$dir/out" floor_excursion)
+rm -rf "$dir/s0"
+expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 --ground \
+    --start 20 --end 150 -o "$dir/s" --json
+cp "$dir/out" "$dir/s.json"
+fe=$(json_num "$dir/s.json" floor_excursion) acc=$(json_num "$dir/s.json" transition_accel_ratio)
+echo "samba: $(json_num "$dir/s.json" transitions) transitions, $(json_num "$dir/s.json" component_count)" \
+     "component(s); lowest vertex outside the example's range by $fe m with --ground ($drift without);" \
+     "transition acceleration $acc x the example's p99; targets met by $(json_num "$dir/s.json" targets_met) of 4;" \
+     "analysis $(json_num "$dir/s.json" analysis_s) s"
+le "$fe" 0.02 || fail "samba --ground: the lowest vertex leaves the floor by $fe m"
+le "$acc" 1.5 || fail "samba: transition acceleration $acc x the example's 99th percentile"
+[ "$(json_num "$dir/s.json" targets_met)" = 4 ] || fail "samba: --start/--end not met"
+rm -rf "$dir/s"
 echo "variations_cli: ok"
