@@ -434,11 +434,12 @@ int mdl_skin_write_gltf(const mdl_model *m, const char *path, char *err);
 
 /* ------------------------------------------------------------------ variations (Zheng 2013, variations/) */
 
-/* Endless different animations from one example, on the bones of its skin (Zheng 2013, Sec. 3):
+/* Endless different animations from one example, on the bones of its skin (Zheng 2013, Sec. 3-4):
  * transitions between frames whose reduced, rigid-invariant bone coordinates are close (Sec. 3.2),
  * spliced with the reference bone matched rigidly (eq. 7) and the other bones blended linearly in
  * its frame over a window (the comparison of Fig. 6), walked at random on the motion graph
- * (Sec. 3.4). The output is bone transforms (compact, resolution-independent); vertices come from
+ * (Sec. 3.4), meeting targeted frames; optionally per component between the cut nodes of the
+ * bone graph, merged by Algorithm 1 (Sec. 4). The output is bone transforms (compact, resolution-independent); vertices come from
  * the skin only when asked. docs/MODEL.md says where this departs from the paper. */
 typedef struct mdl_variations mdl_variations;
 

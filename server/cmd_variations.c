@@ -1,10 +1,13 @@
 /* cmd_variations.c - `meshsteer variations`: many different animations of any length from the one
  * example a skin was fitted to (Zheng 2013, model.h "variations"): the transition graph of the
- * skin, N random walks of F frames, each written as a PC2 point cache of the skinned mesh, and
- * with --json the graph's figures and, per variation, its largest frame-to-frame vertex jump
- * beside the example's own (the skin's fitted frames, skinned) and the largest vertex
- * acceleration near its transitions beside the 99th percentile of the example's. Serial: a walk of the horse's 22
- * bones costs microseconds per frame; the skinning dominates. */
+ * skin (per component of its bone graph unless --components 1), N walks of F frames meeting the
+ * targeted frames, all bone motions in one file (variations.bones) and the first K as PC2 point
+ * caches of the skinned mesh, and with --json the graph's figures and, per variation, its largest
+ * frame-to-frame vertex jump beside the example's own (the skin's fitted frames, skinned), the
+ * largest vertex acceleration near its transitions beside the 99th percentile of the example's,
+ * and its lowest vertex against the example's floor. The walks run in chunks on --threads
+ * threads (cli_parallel_for); the overlap test, the files and the figures follow in order, so
+ * the output does not depend on the thread count. */
 #include "cli.h"
 
 #include <cjson/cJSON.h>
@@ -27,7 +30,9 @@ static const char usage_text[] =
     "(`meshsteer skin`; Zheng 2013): transitions between frames whose bone poses, seen from the\n"
     "most influential bone, are close (Sec. 3.2), spliced with that bone matched rigidly and the\n"
     "others blended linearly, and random walks on the graph they make (Sec. 3.4). Writes\n"
-    "OUT_DIR/variation_000.pc2, ... (the skinned mesh; topology: the model's rest pose). Where\n"
+    "OUT_DIR/variations.bones (every variation's bone transforms and source frames;\n"
+    "docs/FORMATS.md) and OUT_DIR/variation_000.pc2, ... (the skinned mesh; topology: the\n"
+    "model's rest pose). Where\n"
     "the bone graph has cut nodes, each component between them walks on its own graph and\n"
     "the components are merged at their cut nodes (Sec. 4, Algorithm 1).\n"
     "\n"
@@ -46,10 +51,23 @@ static const char usage_text[] =
     "                        (default 0.1; 0: uniform)\n"
     "  --min-segment N       frames between transitions at least (default 8)\n"
     "  --start FRAME         every walk starts at this fitted frame (default: by its seed)\n"
-    "  -o OUT_DIR            directory for the PC2 files (created)\n"
+    "  --end FRAME           every walk ends at this fitted frame\n"
+    "  --target IN:OUT,...   fitted frame IN at output frame OUT (Sec. 3.4; with --start and\n"
+    "                        --end met exactly, or an error when no walk can)\n"
+    "  --ground              the most influential bone moves only on the ground plane at a\n"
+    "                        transition (a turn about y, a horizontal shift: feet stay down)\n"
+    "  --max-overlap F       a variation showing the same fitted frames as an earlier one on\n"
+    "                        more than F of its frames is walked again with a new seed\n"
+    "                        (Sec. 3.4; default 0.9; 1: never)\n"
+    "  --threads T           walks on T threads (default: online CPUs); the output does not\n"
+    "                        depend on T\n"
+    "  --pc2 K               write the skinned meshes of the first K variations only\n"
+    "                        (default: all; 0: bone motions only)\n"
+    "  -o OUT_DIR            directory for the files (created)\n"
     "  --add-to MODEL.msm    make the skin in MODEL.msm play an endless random walk (the given\n"
     "                        options, --seed S) instead of looping its frames, and rewrite the\n"
-    "                        file: the daemon's idle source then walks. --model defaults to it;\n"
+    "                        file: the daemon's idle source then walks (one component, no\n"
+    "                        --ground). --model defaults to it;\n"
     "                        --count, --frames and -o are then optional\n"
     "  --json                print bones, frames, ref_bone, rank, alpha, beta, max_adjacent,\n"
     "                        tc, transitions (the components' sum), single_transitions (the\n"
@@ -63,8 +81,12 @@ static const char usage_text[] =
     "                        file, transitions taken, max_jump and max_jump_ratio (to the\n"
     "                        example's), transition_max_accel (the largest vertex acceleration\n"
     "                        within 3 frames of a transition) and transition_accel_ratio (to the\n"
-    "                        example's 99th percentile), and per component the transitions\n"
-    "                        taken as \"from>to ...\" (components_taken)\n";
+    "                        example's 99th percentile), floor_excursion (how far the lowest\n"
+    "                        vertex of a frame leaves the example's range of it), overlap,\n"
+    "                        and per component the transitions taken as \"from>to ...\"\n"
+    "                        (components_taken); also analysis_s, threads, targets,\n"
+    "                        targets_met, overlap_redrawn, example_floor_min/max (variations\n"
+    "                        with a mesh only: the first K of --pc2)\n";
 
 static double max_jump(const float *V, int nv, int frames)
 {

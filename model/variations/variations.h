@@ -3,7 +3,8 @@
  *   so3.c          Phi (axis-angle, the matrix logarithm of Sec. 3.2) and its inverse
  *   transitions.c  Sec. 3.2: reference bone, local-frame bone positions (eq. 2), reduced
  *                  coordinates (eq. 3-4), transition cost D(i, j) (eq. 5-6), candidates below T_c
- *   blend.c        Sec. 3.3: the reference bone matched rigidly (eq. 7) and the linear blend of
+ *   blend.c        Sec. 3.3: the reference bone matched rigidly (eq. 7; or on the ground plane,
+ *                  Sec. 5) and the linear blend of
  *                  the local bone coordinates over a window (the comparison of Fig. 6), back to the
  *                  world frame (eq. 10)
  *   walk.c         Sec. 3.4: random walks on the motion graph, one output frame per step
@@ -11,6 +12,8 @@
  *   components.c   Sec. 4: the components synthesised apart and the order they are merged in
  *   merge.c        Sec. 4.2: Algorithm 1, D_C (eq. 12), the cut node (eq. 13) and the merged
  *                  component's bones (eq. 14)
+ *   target.c       Sec. 3.4: targeted frames (backward reachability, the walk restricted)
+ *   overlap.c      Sec. 3.4: how much two walks overlap
  *
  * paper -> code:
  *   N frames, |B| bones   nframes, nb (the skin's fitted frames, in order, and its bones)
