@@ -13,6 +13,7 @@
  * and 162.7 s on a quad-core i7; 1.4 - 9.7 min analysis). */
 #include "model.h"
 #include "test.h"
+#include "fit.h"
 
 #include <pthread.h>
 #include <time.h>
@@ -105,21 +106,9 @@ int main(int argc, char **argv)
     if (argc > 1) {
         ASSERT_OK(mdl_model_load(argv[1], &m, err), err);
     } else {
-        mdl_meshseq *s = NULL;
-        ASSERT_OK(mdl_meshseq_read(test_data("meshes/samba/samba.pc2"),
-                                   test_data("meshes/samba/rest.obj"), &s, err), err);
-        int *idx = calloc(s->frames, sizeof *idx);
-        for (int i = 0; i < s->frames; i++)
-            idx[i] = i;
-        mdl_skin_opts so;
-        mdl_skin_opts_default(&so);
-        so.bones = 40;
-        so.max_influences = 4;
         printf("fitting samba's skin (40 bones, serial, untimed) ...\n");
         fflush(stdout);
-        ASSERT_OK(mdl_skin_fit(s, idx, s->frames, &so, &m, err), err);
-        free(idx);
-        mdl_meshseq_destroy(s);
+        m = vt_fit_skin("meshes/samba/samba.pc2", "meshes/samba/rest.obj", 40);
     }
     int nb, K, nfit;
     const int *bone;

@@ -13,6 +13,7 @@
 #include "test.h"
 #include "looping.h"
 #include "variations/variations.h"
+#include "fit.h"
 
 #include <errno.h>
 
@@ -24,29 +25,13 @@ static double max_abs_diff(const double *a, const double *b, size_t n)
     return m;
 }
 
-/* inverse(A) B for rigid A, B (12 doubles each) */
-static void relative(const double A[12], const double B[12], double out[12])
-{
-    double At[9] = {A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8]};
-    mdl__mat3_mul(At, B, out);
-    double d[3] = {B[9] - A[9], B[10] - A[10], B[11] - A[11]};
-    for (int a = 0; a < 3; a++)
-        out[9 + a] = At[3 * a] * d[0] + At[3 * a + 1] * d[1] + At[3 * a + 2] * d[2];
-}
-
 static void tube(void)
 {
     char err[MDL_ERR_LEN] = "";
     const int N = 60, P = 20;
-    mdl_meshseq *s = lp_sequence(N, P);
-    int idx[60];
-    for (int i = 0; i < N; i++)
-        idx[i] = i;
-    mdl_skin_opts so;
-    mdl_skin_opts_default(&so);
-    so.bones = 3;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_skin_fit(s, idx, N, &so, &m, err), err);
+    mdl_meshseq *s = NULL;
+    mdl_model *m = lp_fit(N, P, 3, &s, err);
+    ASSERT_OK(m ? 0 : -1, err);
     mdl_variations_opts o;
     mdl_variations_opts_default(&o);
     ASSERT_INT_EQ(o.components, 1);
@@ -86,19 +71,10 @@ static void tube(void)
 static void horse(void)
 {
     char err[MDL_ERR_LEN] = "";
-    const char *path = test_data("meshes/horse-gallop");
-    mdl_meshseq *s = NULL;
-    ASSERT_OK(mdl_meshseq_read(path, NULL, &s, err), err);
-    int *idx = calloc(s->frames, sizeof *idx);
-    for (int i = 0; i < s->frames; i++)
-        idx[i] = i;
-    mdl_skin_opts so;
-    mdl_skin_opts_default(&so);
-    so.bones = 22;
-    so.max_influences = 4;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_skin_fit(s, idx, s->frames, &so, &m, err), err);
-    int N = s->frames, half = N / 2;
+    mdl_model *m = vt_fit_skin("meshes/horse-gallop", NULL, 22);
+    mdl_skin_stats sk;
+    mdl_skin_get_stats(m, &sk);
+    int N = sk.frames, half = N / 2;
     ASSERT_INT_EQ(N, 48);
 
     /* one component: corresponding frames only */
@@ -181,8 +157,8 @@ static void horse(void)
             mdl__vwalk_step(&w1, Tc);
             for (int b = 0; b < tc->nb; b++) {
                 double want[12], got[12];
-                relative(Tc + 12 * tc->cut_local, Tc + 12 * b, want);
-                relative(T + (size_t)nb * 12 * f + 12 * tc->cut, T + (size_t)nb * 12 * f + 12 * tc->bones[b], got);
+                vt_relative(Tc + 12 * tc->cut_local, Tc + 12 * b, want);
+                vt_relative(T + (size_t)nb * 12 * f + 12 * tc->cut, T + (size_t)nb * 12 * f + 12 * tc->bones[b], got);
                 ASSERT_LE_I(max_abs_diff(want, got, 12), 1e-9, f);
             }
         }
@@ -244,8 +220,6 @@ static void horse(void)
     free(src);
     mdl_variations_destroy(v);
     mdl_model_destroy(m);
-    mdl_meshseq_destroy(s);
-    free(idx);
 }
 
 int main(void)

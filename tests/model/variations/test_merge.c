@@ -7,6 +7,7 @@
 #include "model.h"
 #include "test.h"
 #include "variations/variations.h"
+#include "fit.h"
 
 static uint64_t rng = 777;
 static double uni(void)
@@ -21,16 +22,6 @@ static void random_rigid(double M[12])
     mdl__so3_exp(w, M);
     for (int a = 0; a < 3; a++)
         M[9 + a] = 2 * uni() - 1;
-}
-
-/* A^-1 B for rigid A, B: (R_A^T R_B, R_A^T (t_B - t_A)) */
-static void relative(const double A[12], const double B[12], double out[12])
-{
-    double At[9] = {A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8]};
-    mdl__mat3_mul(At, B, out);
-    double d[3] = {B[9] - A[9], B[10] - A[10], B[11] - A[11]};
-    for (int a = 0; a < 3; a++)
-        out[9 + a] = At[3 * a] * d[0] + At[3 * a + 1] * d[1] + At[3 * a + 2] * d[2];
 }
 
 int main(void)
@@ -72,8 +63,8 @@ int main(void)
         /* the component's bones relative to the cut node as in the component */
         for (int b = 1; b < 3; b++) {
             double want[12], got[12];
-            relative(Tc, Tc + 12 * b, want);
-            relative(T + 12, T + 12 * bones[b], got);
+            vt_relative(Tc, Tc + 12 * b, want);
+            vt_relative(T + 12, T + 12 * bones[b], got);
             for (int k = 0; k < 12; k++)
                 ASSERT_NEAR(got[k], want[k], 1e-9);
         }

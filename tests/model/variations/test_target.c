@@ -8,6 +8,7 @@
 #include "model.h"
 #include "test.h"
 #include "looping.h"
+#include "fit.h"
 
 #include <errno.h>
 
@@ -45,15 +46,9 @@ int main(void)
     mdl_set_blas_threads(1);
     char err[MDL_ERR_LEN] = "";
     const int N = 60, P = 20, F = 300;
-    mdl_meshseq *s = lp_sequence(N, P);
-    int idx[60];
-    for (int i = 0; i < N; i++)
-        idx[i] = i;
-    mdl_skin_opts so;
-    mdl_skin_opts_default(&so);
-    so.bones = 3;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_skin_fit(s, idx, N, &so, &m, err), err);
+    mdl_meshseq *s = NULL;
+    mdl_model *m = lp_fit(N, P, 3, &s, err);
+    ASSERT_OK(m ? 0 : -1, err);
     mdl_variations_opts o;
     mdl_variations_opts_default(&o);
     o.min_segment = 2;
@@ -93,14 +88,7 @@ int main(void)
     mdl_meshseq_destroy(s);
 
     /* horse-gallop with components: every component meets them */
-    const char *path = test_data("meshes/horse-gallop");
-    ASSERT_OK(mdl_meshseq_read(path, NULL, &s, err), err);
-    int hidx[48];
-    for (int i = 0; i < 48; i++)
-        hidx[i] = i;
-    so.bones = 22;
-    so.max_influences = 4;
-    ASSERT_OK(mdl_skin_fit(s, hidx, 48, &so, &m, err), err);
+    m = vt_fit_skin("meshes/horse-gallop", NULL, 22);
     mdl_variations_opts_default(&o);
     o.components = 0;
     ASSERT_OK(mdl_variations_build(m, &o, &v, err), err);
@@ -111,7 +99,6 @@ int main(void)
     check(v, h, 3, 336, st.components, 6);
     mdl_variations_destroy(v);
     mdl_model_destroy(m);
-    mdl_meshseq_destroy(s);
     printf("target: ok\n");
     return 0;
 }

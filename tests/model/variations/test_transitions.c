@@ -17,15 +17,9 @@ int main(void)
     mdl_set_blas_threads(1);
     char err[MDL_ERR_LEN] = "";
     const int N = 60, P = 20;
-    mdl_meshseq *s = lp_sequence(N, P);
-    int idx[60];
-    for (int i = 0; i < N; i++)
-        idx[i] = i;
-    mdl_skin_opts so;
-    mdl_skin_opts_default(&so);
-    so.bones = 3;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_skin_fit(s, idx, N, &so, &m, err), err);
+    mdl_meshseq *s = NULL;
+    mdl_model *m = lp_fit(N, P, 3, &s, err);
+    ASSERT_OK(m ? 0 : -1, err);
     mdl_skin_stats sst;
     mdl_skin_get_stats(m, &sst);
     printf("skin: 3 bones, rmse %.2e (%.4f %% of the diagonal)\n", sst.rmse, 100 * sst.rmse_over_diag);
