@@ -8,7 +8,9 @@
  * gallops as the input does), the stepping walker (the idle source's) gives the batch walk's
  * frames, the tail's bones sit relative to its cut node exactly as its own walk put them, and
  * the tail's walks differ between 4 variations: different
- * transition sequences and different tail-tip trajectories relative to the body. */
+ * transition sequences and different tail-tip trajectories relative to the body. And --ground
+ * (blend.c) keeps the reference bone at its input frame's height and tilt away from a blend
+ * window, which eq. 7 alone does not. */
 #include "model.h"
 #include "test.h"
 #include "looping.h"
@@ -93,6 +95,55 @@ static void horse(void)
         ASSERT_INT_EQ_I(abs(a - b), half, k);
     }
     mdl_variations_destroy(v);
+
+    /* --ground: away from a transition's blend window, the reference bone has exactly its input
+     * frame's height and tilt (the second row of R: a turn about y leaves it); eq. 7 alone does
+     * not keep them */
+    {
+        int nb0, K0, nf0;
+        const int *bone0;
+        const double *w0, *Tfit;
+        mdl_skin_get(m, &nb0, &K0, &nf0, &bone0, &w0, &Tfit);
+        const int F = 336;
+        double dev[2] = {0, 0};
+        double *T = calloc((size_t)F * nb0 * 12, sizeof *T);
+        int *src = calloc(F, sizeof *src), checked = 0;
+        for (int g = 0; g < 2; g++) {
+            mdl_variations_opts og;
+            mdl_variations_opts_default(&og);
+            og.ground = g;
+            og.tc_factor = 0.2; /* more transitions than corresponding frames: tilts differ */
+            mdl_variations *vg = NULL;
+            ASSERT_OK(mdl_variations_build(m, &og, &vg, err), err);
+            mdl_variations_stats sg;
+            mdl_variations_get_stats(vg, &sg);
+            ASSERT_OK(mdl_variations_walk(vg, 5, F, T, NULL, src, err), err);
+            int since = og.blend;
+            for (int f = 0; f < F; f++) {
+                if (f > 0 && src[f] != src[f - 1] + 1)
+                    since = 0;
+                else if (f > 0)
+                    since++;
+                if (since < og.blend)
+                    continue;
+                const double *Tr = T + 12 * ((size_t)f * nb0 + sg.ref_bone);
+                const double *Ti = Tfit + 12 * ((size_t)src[f] * nb0 + sg.ref_bone);
+                double d = fabs(Tr[10] - Ti[10]);
+                for (int c = 0; c < 3; c++)
+                    d = fmax(d, fabs(Tr[3 + c] - Ti[3 + c]));
+                dev[g] = fmax(dev[g], d);
+                checked += g;
+            }
+            mdl_variations_destroy(vg);
+        }
+        printf("horse --ground: reference bone height and tilt off their input frame's by %.3g "
+               "(%d frames checked); %.3g without\n", dev[1], checked, dev[0]);
+        ASSERT_INT_GT(checked, 100);
+        ASSERT_LT(dev[1], 1e-9);
+        ASSERT_GT(dev[0], 1e-3);
+        free(T);
+        free(src);
+    }
 
     /* components: the tail apart */
     o.components = 0;
