@@ -454,11 +454,12 @@ int mdl_skin_write_gltf(const mdl_model *m, const char *path, int close_loop, ch
 
 /* ------------------------------------------------------------------ variations (Zheng 2013, variations/) */
 
-/* Endless different animations from one example, on the bones of its skin (Zheng 2013, Sec. 3):
+/* Endless different animations from one example, on the bones of its skin (Zheng 2013, Sec. 3-4):
  * transitions between frames whose reduced, rigid-invariant bone coordinates are close (Sec. 3.2),
  * spliced with the reference bone matched rigidly (eq. 7) and the other bones blended linearly in
  * its frame over a window (the comparison of Fig. 6), walked at random on the motion graph
- * (Sec. 3.4). The output is bone transforms (compact, resolution-independent); vertices come from
+ * (Sec. 3.4), meeting targeted frames; optionally per component between the cut nodes of the
+ * bone graph, merged by Algorithm 1 (Sec. 4). The output is bone transforms (compact, resolution-independent); vertices come from
  * the skin only when asked. docs/MODEL.md says where this departs from the paper. */
 typedef struct mdl_variations mdl_variations;
 
@@ -474,10 +475,16 @@ typedef struct mdl_variations_opts {
                            video textures (Schoedl et al. 2000); 0: uniform */
     int min_segment;    /* output frames between two transitions at least (unless at a dead end) */
     int start;          /* the input frame walks start at; -1: a random one (of the seed) */
+    int components;     /* Sec. 4: 1 one component; 0 (auto) the blocks between the cut nodes of
+                           the bone graph, synthesised apart and merged (Algorithm 1) */
+    double te_factor;   /* Sec. 4.1: bone graph edges below te_factor x max d_ij are dropped */
+    int ground;         /* Sec. 5: the reference bone moved only on the ground plane (a turn
+                           about the up axis y and a horizontal shift) at a splice */
 } mdl_variations_opts;
 
-/* svd_tol 0.005, tc_factor 40, threshold 0, min_gap 3, blend 8, jump_prob 0.2, temperature 0.1,
- * min_segment 8, start -1 (the paper's values where it gives them). */
+/* svd_tol 0.005, tc_factor 1/40 (the paper prints 40; docs/MODEL.md says why not), threshold 0,
+ * min_gap 3, blend 8, jump_prob 0.2, temperature 0.1, min_segment 8, start -1, components 1,
+ * te_factor 0.1, ground 0 (the paper's values where it gives them). */
 void mdl_variations_opts_default(mdl_variations_opts *o);
 
 typedef struct mdl_variations_stats {
@@ -488,7 +495,10 @@ typedef struct mdl_variations_stats {
     int alive_frames;   /* frames from which a walk can go on for ever */
     double alpha, beta; /* the weights of eq. 5 */
     double max_adjacent;/* max_i D(i, i-1) */
-    double tc;          /* T_c */
+    double tc;          /* T_c (of the whole skin's graph) */
+    int components;     /* 1, or the components synthesised apart (Sec. 4) */
+    int single_transitions; /* transitions of the whole skin's graph (= transitions with one
+                           component; with several, transitions sums the components') */
 } mdl_variations_stats;
 
 /* The transition graph of the skin in m (-ENOENT when m holds none; -EDOM with fewer than 4
@@ -500,14 +510,46 @@ void mdl_variations_destroy(mdl_variations *v);
 void mdl_variations_get_stats(const mdl_variations *v, mdl_variations_stats *st);
 /* Transition k (0 <= k < transitions): frames (from, to) and its cost D. -ERANGE otherwise. */
 int mdl_variations_transition(const mdl_variations *v, int k, int *from, int *to, double *cost);
+/* Component c (0 <= c < components; 0 the anchor, parents before children): its bones (global
+ * ids, ascending; valid while v lives; NULL with one component: all of them), its cut node shared with its parent component (-1 for
+ * component 0), the parent, its reference bone and its transitions. -ERANGE otherwise. */
+typedef struct mdl_variations_component {
+    int nbones;
+    const int *bones;
+    int cut, parent, ref_bone, transitions, alive_frames;
+    double tc;
+} mdl_variations_component;
+int mdl_variations_get_component(const mdl_variations *v, int c, mdl_variations_component *out);
+/* Transition k of component c (as mdl_variations_transition for the whole graph). */
+int mdl_variations_component_transition(const mdl_variations *v, int c, int k, int *from, int *to,
+                                        double *cost);
 /* D(i, j) of eq. 5 for 1 <= i, j < frames (NAN otherwise). */
 double mdl_variations_cost(const mdl_variations *v, int i, int j);
 /* A random walk of `frames` output frames, reproducible from `seed`: T (frames x bones x 12, R
  * row-major then t, as mdl_skin_get) gets the bone transforms; V (frames x nv x 3, may be NULL)
- * the skinned vertices; src (frames, may be NULL) the input frame of each output frame.
- * -ENOENT when the graph has no frame a walk can go on for ever from (no transitions). */
+ * the skinned vertices; src (frames x components, may be NULL) the input frame of each output
+ * frame in each component. With several components, each walks on its own graph from a common
+ * start frame and they are merged by Algorithm 1 (eq. 12-14); a component whose cut node's
+ * stretch does not match (D_C >= its T_c) is walked again with another seed (16 tries, then
+ * -EAGAIN). -ENOENT when the graph has no frame a walk can go on for ever from (no transitions). */
 int mdl_variations_walk(const mdl_variations *v, uint64_t seed, int frames, double *T, float *V,
                         int *src, char *err);
+/* Skins one frame of bone transforms T (bones x 12) into V (nv x 3). */
+void mdl_variations_skin_frame(const mdl_variations *v, const double *T, float *V);
+/* Targeted frames (Sec. 3.4): input frame `in` must be shown at output frame `out`. */
+typedef struct mdl_variations_target {
+    int in, out;
+} mdl_variations_target;
+/* mdl_variations_walk meeting targets[0..nt) exactly (src[out] = in in every component): the
+ * walk's choices restricted to input frames from which the later targets can still be met.
+ * -EINVAL for a frame out of range or an output frame targeted twice, -ENOENT when no walk meets
+ * them (the transitions do not connect the frames in the time given). */
+int mdl_variations_walk_targets(const mdl_variations *v, uint64_t seed, int frames,
+                                const mdl_variations_target *targets, int nt, double *T, float *V,
+                                int *src, char *err);
+/* Sec. 3.4's overlap of two walks' src (frames x components, as mdl_variations_walk gives): the
+ * fraction of output frames where every component shows the same input frame (overlap.c). */
+double mdl_variations_overlap(const int *src_a, const int *src_b, int frames, int components);
 /* Makes the skin of m play an endless random walk (seed, o: NULL for defaults) on its example's
  * transition graph instead of looping the fitted frames: mdl_synth_create of the skin kind then
  * rebuilds the graph, and mdl_synth_frame at clock t shows the walk's frame t x fps (the

@@ -25,6 +25,13 @@ int cli_fail(const char *cmd, int status, const char *fmt, ...) __attribute__((f
 void cli_progress(void *ud, const char *stage, double fraction);
 void cli_progress_done(void);
 
+/* A parallel-for over pthreads (cli_parallel.c), an mdl_parallel_fn with ud = a cli_pool: up to
+ * threads workers (64 at most; fewer when a thread cannot start), worker 0 the caller. */
+typedef struct cli_pool {
+    int threads;
+} cli_pool;
+void cli_parallel_for(void *ud, int n, mdl_parallel_body body, void *ctx);
+
 /* Parses a double / int option value; on error prints a usage error and returns -1. */
 int cli_parse_double(const char *cmd, const char *opt, const char *s, double *out);
 int cli_parse_int(const char *cmd, const char *opt, const char *s, int *out);

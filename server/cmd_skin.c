@@ -2,17 +2,14 @@
  * skin") of any mesh animation: a model file holding the skin kind, optionally beside an existing
  * model (--add-to), and a glTF 2.0 binary (--gltf).
  *
- * The threads live here (model/ creates none, STYLE.md Sec. 1): a parallel-for over pthreads is
- * handed to mdl_skin_fit. Each call starts T-1 threads that take indices from an atomic counter
- * beside the calling thread, and joins them; the model splits its work into blocks whose results
- * do not depend on the thread that runs them, so the output is identical for every --threads. */
+ * The threads live here (model/ creates none, STYLE.md Sec. 1): cli_parallel_for (cli_parallel.c)
+ * is handed to mdl_skin_fit; the model splits its work into blocks whose results do not depend on
+ * the thread that runs them, so the output is identical for every --threads. */
 #include "cli.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <getopt.h>
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -48,57 +45,6 @@ static const char usage_text[] =
     "  --json                print bones, max_influences, frames, vertices, rmse, rmse_over_diag,\n"
     "                        max_err, seconds, threads as one JSON object\n";
 
-typedef struct pool {
-    int threads;
-} pool;
-
-typedef struct job {
-    atomic_int next;
-    int n;
-    mdl_parallel_body body;
-    void *ctx;
-} job;
-
-typedef struct worker_arg {
-    job *j;
-    int worker;
-} worker_arg;
-
-static void run_worker(job *j, int worker)
-{
-    for (;;) {
-        int i = atomic_fetch_add(&j->next, 1);
-        if (i >= j->n)
-            return;
-        j->body(j->ctx, i, worker);
-    }
-}
-
-static void *worker_main(void *arg)
-{
-    worker_arg *a = arg;
-    run_worker(a->j, a->worker);
-    return NULL;
-}
-
-static void parallel_for(void *ud, int n, mdl_parallel_body body, void *ctx)
-{
-    pool *p = ud;
-    job j = {.n = n, .body = body, .ctx = ctx};
-    atomic_init(&j.next, 0);
-    pthread_t tid[64];
-    worker_arg args[64];
-    int started = 0;
-    for (int w = 1; w < p->threads && w < 64; w++) {
-        args[w] = (worker_arg){&j, w};
-        if (pthread_create(&tid[w], NULL, worker_main, &args[w]) != 0)
-            break; /* fewer threads: the remaining work falls to those that run */
-        started = w;
-    }
-    run_worker(&j, 0);
-    for (int w = 1; w <= started; w++)
-        pthread_join(tid[w], NULL);
-}
 
 int cmd_skin(int argc, char **argv)
 {
@@ -183,9 +129,9 @@ int cmd_skin(int argc, char **argv)
         goto out;
     }
     mdl_set_blas_threads(1);
-    pool p = {threads};
+    cli_pool p = {threads};
     so.workers = threads;
-    so.parallel = threads > 1 ? parallel_for : NULL;
+    so.parallel = threads > 1 ? cli_parallel_for : NULL;
     so.parallel_ud = &p;
     so.seed = (uint64_t)(unsigned)seed;
     so.name = name ? name : "skin";

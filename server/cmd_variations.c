@@ -1,10 +1,13 @@
 /* cmd_variations.c - `meshsteer variations`: many different animations of any length from the one
  * example a skin was fitted to (Zheng 2013, model.h "variations"): the transition graph of the
- * skin, N random walks of F frames, each written as a PC2 point cache of the skinned mesh, and
- * with --json the graph's figures and, per variation, its largest frame-to-frame vertex jump
- * beside the example's own (the skin's fitted frames, skinned) and the largest vertex
- * acceleration near its transitions beside the 99th percentile of the example's. Serial: a walk of the horse's 22
- * bones costs microseconds per frame; the skinning dominates. */
+ * skin (per component of its bone graph unless --components 1), N walks of F frames meeting the
+ * targeted frames, all bone motions in one file (variations.bones) and the first K as PC2 point
+ * caches of the skinned mesh, and with --json the graph's figures and, per variation, its largest
+ * frame-to-frame vertex jump beside the example's own (the skin's fitted frames, skinned), the
+ * largest vertex acceleration near its transitions beside the 99th percentile of the example's,
+ * and its lowest vertex against the example's floor. The walks run in chunks on --threads
+ * threads (cli_parallel_for); the overlap test, the files and the figures follow in order, so
+ * the output does not depend on the thread count. */
 #include "cli.h"
 
 #include <cjson/cJSON.h>
@@ -16,6 +19,8 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <stdint.h>
+#include <unistd.h>
 
 static const char usage_text[] =
     "usage: meshsteer variations --model SKIN.msm --count N --frames F [options] -o OUT_DIR\n"
@@ -25,34 +30,63 @@ static const char usage_text[] =
     "(`meshsteer skin`; Zheng 2013): transitions between frames whose bone poses, seen from the\n"
     "most influential bone, are close (Sec. 3.2), spliced with that bone matched rigidly and the\n"
     "others blended linearly, and random walks on the graph they make (Sec. 3.4). Writes\n"
-    "OUT_DIR/variation_000.pc2, ... (the skinned mesh; topology: the model's rest pose).\n"
+    "OUT_DIR/variations.bones (every variation's bone transforms and source frames;\n"
+    "docs/FORMATS.md) and OUT_DIR/variation_000.pc2, ... (the skinned mesh; topology: the\n"
+    "model's rest pose). Where\n"
+    "the bone graph has cut nodes, each component between them walks on its own graph and\n"
+    "the components are merged at their cut nodes (Sec. 4, Algorithm 1).\n"
     "\n"
     "  --model SKIN.msm      a model file holding a skin\n"
     "  --count N             number of variations (required, >= 1)\n"
     "  --frames F            frames per variation (required, >= 1)\n"
     "  --seed S              variation k uses seed S + k (default 1)\n"
-    "  --threshold F         T_c itself (default: 40 x max D(i, i-1), the paper's)\n"
-    "  --tc-factor F         T_c = F x max D(i, i-1) (default 40)\n"
+    "  --threshold F         T_c itself (default: max D(i, i-1) / 40; docs/MODEL.md)\n"
+    "  --tc-factor F         T_c = F x max D(i, i-1) (default 0.025; the paper prints 40)\n"
+    "  --components auto|1   auto (default): the bone graph's blocks between its cut nodes\n"
+    "                        walk apart and are merged (Sec. 4); 1: the skin as one\n"
+    "  --te-factor F         bone graph edges below F x the largest are dropped (default 0.1)\n"
     "  --blend N             frames over which a transition is blended (default 8, 0: none)\n"
     "  --jump-prob P         chance per frame of taking an open transition (default 0.2)\n"
     "  --temperature F       prefer cheap transitions: chance ~ exp(-D / (F x max D(i, i-1)))\n"
     "                        (default 0.1; 0: uniform)\n"
     "  --min-segment N       frames between transitions at least (default 8)\n"
     "  --start FRAME         every walk starts at this fitted frame (default: by its seed)\n"
-    "  -o OUT_DIR            directory for the PC2 files (created)\n"
+    "  --end FRAME           every walk ends at this fitted frame\n"
+    "  --target IN:OUT,...   fitted frame IN at output frame OUT (Sec. 3.4; with --start and\n"
+    "                        --end met exactly, or an error when no walk can)\n"
+    "  --ground              the most influential bone moves only on the ground plane at a\n"
+    "                        transition (a turn about y, a horizontal shift: feet stay down)\n"
+    "  --max-overlap F       a variation showing the same fitted frames as an earlier one on\n"
+    "                        more than F of its frames is walked again with a new seed\n"
+    "                        (Sec. 3.4; default 0.9; 1: never)\n"
+    "  --threads T           walks on T threads (default: online CPUs); the output does not\n"
+    "                        depend on T\n"
+    "  --pc2 K               write the skinned meshes of the first K variations only\n"
+    "                        (default: all; 0: bone motions only)\n"
+    "  -o OUT_DIR            directory for the files (created)\n"
     "  --add-to MODEL.msm    make the skin in MODEL.msm play an endless random walk (the given\n"
     "                        options, --seed S) instead of looping its frames, and rewrite the\n"
-    "                        file: the daemon's idle source then walks. --model defaults to it;\n"
+    "                        file: the daemon's idle source then walks (one component, no\n"
+    "                        --ground). --model defaults to it;\n"
     "                        --count, --frames and -o are then optional\n"
     "  --json                print bones, frames, ref_bone, rank, alpha, beta, max_adjacent,\n"
-    "                        tc, transitions, the transition list (from, to, cost),\n"
+    "                        tc, transitions (the components' sum), single_transitions (the\n"
+    "                        whole skin's graph), the transition list (from, to, cost) of\n"
+    "                        the whole skin's graph, cut_nodes, components (per component\n"
+    "                        its bones, cut node, parent, ref_bone, tc, transitions and\n"
+    "                        their list),\n"
     "                        example_max_jump, example_p99_accel and example_max_accel (the\n"
     "                        99th percentile and the largest of the example's vertex\n"
     "                        accelerations), synth_s and per variation its\n"
     "                        file, transitions taken, max_jump and max_jump_ratio (to the\n"
     "                        example's), transition_max_accel (the largest vertex acceleration\n"
     "                        within 3 frames of a transition) and transition_accel_ratio (to the\n"
-    "                        example's 99th percentile)\n";
+    "                        example's 99th percentile), floor_excursion (how far the lowest\n"
+    "                        vertex of a frame leaves the example's range of it), overlap,\n"
+    "                        and per component the transitions taken as \"from>to ...\"\n"
+    "                        (components_taken); also analysis_s, threads, targets,\n"
+    "                        targets_met, overlap_redrawn, example_floor_min/max (variations\n"
+    "                        with a mesh only: the first K of --pc2)\n";
 
 static double max_jump(const float *V, int nv, int frames)
 {
@@ -95,9 +129,19 @@ static double accel_at(const float *V, int nv, int f)
  * between consecutive frames, and the 99th percentile of the vertex accelerations over all
  * vertices and interior frames (the issue's smoothness reference) and their maximum. 0 when not
  * computable. */
-static void example_motion(const mdl_model *m, double *jump, double *p99, double *amax)
+static double lowest_y(const float *V, int nv)
+{
+    double lo = INFINITY;
+    for (int i = 0; i < nv; i++)
+        lo = V[3 * (size_t)i + 1] < lo ? V[3 * (size_t)i + 1] : lo;
+    return lo;
+}
+
+static void example_motion(const mdl_model *m, double *jump, double *p99, double *amax,
+                           double floor_range[2])
 {
     *jump = *p99 = *amax = 0;
+    floor_range[0] = floor_range[1] = 0;
     int nb, K, N;
     const int *bone;
     const double *w, *T;
@@ -126,6 +170,13 @@ static void example_motion(const mdl_model *m, double *jump, double *p99, double
             }
         }
     *jump = max_jump(V, info.nv, N);
+    floor_range[0] = INFINITY;
+    floor_range[1] = -INFINITY;
+    for (int f = 0; f < N; f++) {
+        double lo = lowest_y(V + 3 * (size_t)f * info.nv, info.nv);
+        floor_range[0] = lo < floor_range[0] ? lo : floor_range[0];
+        floor_range[1] = lo > floor_range[1] ? lo : floor_range[1];
+    }
     size_t n = 0;
     for (int f = 1; f + 1 < N; f++)
         for (int i = 0; i < info.nv; i++) {
@@ -145,21 +196,167 @@ static void example_motion(const mdl_model *m, double *jump, double *p99, double
     free(acc);
 }
 
+/* the transitions component q took, as "from>to from>to ..." (malloc'd); *taken counts them */
+static char *walk_taken(const int *src, int ncomp, int q, int frames, int *taken)
+{
+    size_t cap = 64, len = 0;
+    char *s = malloc(cap);
+    if (!s)
+        return NULL;
+    s[0] = 0;
+    for (int f = 1; f < frames; f++) {
+        int a = src[(size_t)ncomp * (f - 1) + q], b = src[(size_t)ncomp * f + q];
+        if (b == a + 1)
+            continue;
+        (*taken)++;
+        if (len + 32 > cap) {
+            char *t = realloc(s, cap *= 2);
+            if (!t) {
+                free(s);
+                return NULL;
+            }
+            s = t;
+        }
+        /* the walk continued with b after a: the transition (a, b - 1) */
+        len += (size_t)snprintf(s + len, cap - len, "%s%d>%d", len ? " " : "", a, b - 1);
+    }
+    return s;
+}
+
+/* "IN:OUT,IN:OUT,..." appended to t (capacity cap), *n updated; -1 on a malformed list */
+static int parse_targets(const char *s, mdl_variations_target *t, int cap, int *n)
+{
+    while (*s) {
+        char *end;
+        long in = strtol(s, &end, 10);
+        if (end == s || *end != ':')
+            return -1;
+        s = end + 1;
+        long out = strtol(s, &end, 10);
+        if (end == s || (*end && *end != ',') || in < 0 || out < 0 || in > 1 << 30 || out > 1 << 30)
+            return -1;
+        if (*n >= cap)
+            return -1;
+        t[(*n)++] = (mdl_variations_target){(int)in, (int)out};
+        s = *end ? end + 1 : end;
+    }
+    return 0;
+}
+
+/* a chunk of variations walked in parallel: slot i walks seeds[i] into T, src */
+typedef struct walk_batch {
+    const mdl_variations *v;
+    int frames, nb, nc, nt;
+    const mdl_variations_target *t;
+    uint64_t *seeds;
+    double *T;
+    int *src, *rc;
+    char (*err)[MDL_ERR_LEN];
+} walk_batch;
+
+static void batch_body(void *ctx, int i, int worker)
+{
+    (void)worker;
+    walk_batch *b = ctx;
+    b->rc[i] = mdl_variations_walk_targets(b->v, b->seeds[i], b->frames, b->t, b->nt,
+                                           b->T + (size_t)i * b->frames * b->nb * 12, NULL,
+                                           b->src + (size_t)i * b->frames * b->nc, b->err[i]);
+}
+
+/* The bone file (docs/FORMATS.md): header, then per variation u64 seed, frames x bones x 12
+ * float32 (R row-major, t) and frames x components int32 input frames. */
+static int bones_header(FILE *f, int count, int frames, int bones, int comps, float fps)
+{
+    uint32_t h[6] = {1, (uint32_t)count, (uint32_t)frames, (uint32_t)bones, (uint32_t)comps, 0};
+    memcpy(&h[5], &fps, sizeof fps);
+    return fwrite("MSVB", 1, 4, f) == 4 && fwrite(h, sizeof h, 1, f) == 1 ? 0 : -1;
+}
+
+static int bones_record(FILE *f, uint64_t seed, const double *T, const int *src, int frames,
+                        int bones, int comps)
+{
+    if (fwrite(&seed, sizeof seed, 1, f) != 1)
+        return -1;
+    float buf[12 * 64];
+    size_t n = (size_t)frames * bones * 12;
+    for (size_t k = 0; k < n;) {
+        size_t m = n - k < sizeof buf / sizeof *buf ? n - k : sizeof buf / sizeof *buf;
+        for (size_t i = 0; i < m; i++)
+            buf[i] = (float)T[k + i];
+        if (fwrite(buf, sizeof *buf, m, f) != m)
+            return -1;
+        k += m;
+    }
+    for (size_t k = 0; k < (size_t)frames * comps; k++) {
+        int32_t s = src[k];
+        if (fwrite(&s, sizeof s, 1, f) != 1)
+            return -1;
+    }
+    return 0;
+}
+
+/* "cut_nodes" and "components" (bones, cut, parent, ref_bone, tc, transitions and their list) */
+static int add_components(cJSON *jo, const mdl_variations *v, const mdl_variations_stats *st)
+{
+    cJSON *cuts = cJSON_AddArrayToObject(jo, "cut_nodes");
+    cJSON *comps = cJSON_AddArrayToObject(jo, "components");
+    if (!cuts || !comps)
+        return -1;
+    cJSON_AddNumberToObject(jo, "component_count", st->components);
+    for (int c = 0; c < st->components; c++) {
+        mdl_variations_component k;
+        mdl_variations_get_component(v, c, &k);
+        if (k.cut >= 0)
+            cJSON_AddItemToArray(cuts, cJSON_CreateNumber(k.cut));
+        cJSON *e = cJSON_CreateObject(), *bones = cJSON_AddArrayToObject(e, "bones");
+        if (!e || !bones)
+            return -1;
+        for (int b = 0; b < k.nbones; b++)
+            cJSON_AddItemToArray(bones, cJSON_CreateNumber(k.bones ? k.bones[b] : b));
+        cJSON_AddNumberToObject(e, "cut", k.cut);
+        cJSON_AddNumberToObject(e, "parent", k.parent);
+        cJSON_AddNumberToObject(e, "ref_bone", k.ref_bone);
+        cJSON_AddNumberToObject(e, "tc", k.tc);
+        cJSON_AddNumberToObject(e, "transitions", k.transitions);
+        cJSON_AddNumberToObject(e, "alive_frames", k.alive_frames);
+        cJSON *tl = cJSON_AddArrayToObject(e, "transition_list");
+        for (int t = 0; tl && t < k.transitions; t++) {
+            int a, b;
+            double cost;
+            mdl_variations_component_transition(v, c, t, &a, &b, &cost);
+            cJSON *x = cJSON_CreateObject();
+            cJSON_AddNumberToObject(x, "from", a);
+            cJSON_AddNumberToObject(x, "to", b);
+            cJSON_AddNumberToObject(x, "cost", cost);
+            cJSON_AddItemToArray(tl, x);
+        }
+        cJSON_AddItemToArray(comps, e);
+    }
+    return 0;
+}
+
 int cmd_variations(int argc, char **argv)
 {
     const char *cmd = "variations", *modelp = NULL, *outdir = NULL, *addto = NULL;
-    int count = 0, frames = 0, seed = 1, json = 0;
+    int count = 0, frames = 0, seed = 1, json = 0, end = -1, npc2 = -1, ntargets = 0;
+    int threads = (int)sysconf(_SC_NPROCESSORS_ONLN);
+    double max_overlap = 0.9;
+    mdl_variations_target targets[258];
     mdl_variations_opts vo;
     mdl_variations_opts_default(&vo);
+    vo.components = 0;
     enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_JUMP, O_TEMP,
-           O_MINSEG, O_START, O_JSON, O_ADD };
+           O_MINSEG, O_START, O_JSON, O_ADD, O_COMP, O_TEF, O_END, O_TARGET, O_THREADS, O_PC2,
+           O_OVERLAP, O_GROUND };
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},         {"count", 1, 0, O_COUNT},   {"frames", 1, 0, O_FRAMES},
         {"seed", 1, 0, O_SEED},           {"threshold", 1, 0, O_THRESH},
         {"tc-factor", 1, 0, O_TCF},       {"blend", 1, 0, O_BLEND},   {"jump-prob", 1, 0, O_JUMP},
         {"temperature", 1, 0, O_TEMP},    {"min-segment", 1, 0, O_MINSEG},
         {"start", 1, 0, O_START},         {"json", 0, 0, O_JSON},     {"help", 0, 0, 'h'},
-        {"add-to", 1, 0, O_ADD},
+        {"add-to", 1, 0, O_ADD},          {"components", 1, 0, O_COMP},
+        {"te-factor", 1, 0, O_TEF},       {"end", 1, 0, O_END},       {"target", 1, 0, O_TARGET},
+        {"ground", 0, 0, O_GROUND},       {"threads", 1, 0, O_THREADS},     {"pc2", 1, 0, O_PC2},       {"max-overlap", 1, 0, O_OVERLAP},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -178,6 +375,25 @@ int cmd_variations(int argc, char **argv)
         case O_START: if (cli_parse_int(cmd, "--start", optarg, &vo.start)) return CLI_EXIT_USAGE; break;
         case O_JSON: json = 1; break;
         case O_ADD: addto = optarg; break;
+        case O_COMP:
+            if (!strcmp(optarg, "auto"))
+                vo.components = 0;
+            else if (!strcmp(optarg, "1"))
+                vo.components = 1;
+            else
+                return cli_usage_error(cmd, "--components '%s': auto or 1", optarg);
+            break;
+        case O_GROUND: vo.ground = 1; break;
+        case O_END: if (cli_parse_int(cmd, "--end", optarg, &end)) return CLI_EXIT_USAGE; break;
+        case O_TARGET:
+            if (parse_targets(optarg, targets, 256, &ntargets))
+                return cli_usage_error(cmd, "--target '%s': IN:OUT[,IN:OUT...] (frames >= 0, "
+                                       "256 at most)", optarg);
+            break;
+        case O_THREADS: if (cli_parse_int(cmd, "--threads", optarg, &threads)) return CLI_EXIT_USAGE; break;
+        case O_PC2: if (cli_parse_int(cmd, "--pc2", optarg, &npc2)) return CLI_EXIT_USAGE; break;
+        case O_OVERLAP: if (cli_parse_double(cmd, "--max-overlap", optarg, &max_overlap)) return CLI_EXIT_USAGE; break;
+        case O_TEF: if (cli_parse_double(cmd, "--te-factor", optarg, &vo.te_factor)) return CLI_EXIT_USAGE; break;
         case 'o': outdir = optarg; break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
         default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
@@ -194,9 +410,12 @@ int cmd_variations(int argc, char **argv)
     if (count > 100000 || frames > 10000000 || (double)count * frames > 1e9)
         return cli_usage_error(cmd, "--count x --frames is too large");
     if (vo.threshold < 0 || !(vo.tc_factor > 0) || vo.blend < 0 || !(vo.jump_prob >= 0) ||
-        vo.jump_prob > 1 || !(vo.temperature >= 0) || vo.min_segment < 0 || vo.start < -1)
+        vo.jump_prob > 1 || !(vo.temperature >= 0) || vo.min_segment < 0 || vo.start < -1 ||
+        !(vo.te_factor >= 0 && vo.te_factor <= 1) || end < -1 || threads < 1 || npc2 < -1 ||
+        !(max_overlap >= 0 && max_overlap <= 1))
         return cli_usage_error(cmd, "--threshold, --tc-factor, --blend, --jump-prob, "
-                               "--temperature, --min-segment or --start out of range");
+                               "--temperature, --min-segment, --start, --te-factor, --end, --threads, --pc2 or "
+                               "--max-overlap out of range");
 
     char err[MDL_ERR_LEN] = "";
     int status = CLI_EXIT_USAGE;
@@ -228,6 +447,7 @@ int cmd_variations(int argc, char **argv)
     }
     mdl_set_blas_threads(1);
     struct timespec t0, t1;
+    double analysis_s = 0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     rc = mdl_variations_build(model, &vo, &v, err);
     if (rc) {
@@ -262,62 +482,185 @@ int cmd_variations(int argc, char **argv)
         status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", outdir, strerror(errno));
         goto out;
     }
-    T = malloc((size_t)frames * st.bones * 12 * sizeof *T);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    analysis_s = (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec);
+    /* --start and --end are targets at the first and last output frames */
+    if (vo.start >= 0)
+        targets[ntargets++] = (mdl_variations_target){vo.start, 0};
+    if (end >= 0)
+        targets[ntargets++] = (mdl_variations_target){end, frames - 1};
+    for (int k = 0; k < ntargets; k++)
+        if (targets[k].in >= nskinframes || targets[k].out >= frames) {
+            status = cli_fail(cmd, CLI_EXIT_USAGE, "target %d:%d: the skin has %d frames, the "
+                              "variations %d", targets[k].in, targets[k].out, nskinframes, frames);
+            goto out;
+        }
+    if (npc2 < 0 || npc2 > count)
+        npc2 = count;
+    int ncomp = st.components, nb = st.bones;
+    /* a chunk of variations walked at once: at most 64, and about 256 MB of bone transforms */
+    size_t per = (size_t)frames * nb * 12 * sizeof(double);
+    int chunk = (int)((256u << 20) / (per ? per : 1));
+    chunk = chunk < 1 ? 1 : chunk > 64 ? 64 : chunk;
+    chunk = chunk > count ? count : chunk;
+    T = malloc((size_t)chunk * per);
     V = malloc((size_t)frames * info.nv * 3 * sizeof *V);
-    src = malloc((size_t)frames * sizeof *src);
+    src = malloc((size_t)count * frames * ncomp * sizeof *src);
+    uint64_t *seeds = calloc(chunk, sizeof *seeds);
+    int *rcs = calloc(chunk, sizeof *rcs);
+    char(*errs)[MDL_ERR_LEN] = calloc(chunk, sizeof *errs);
+    char bpath[4096];
+    snprintf(bpath, sizeof bpath, "%s/variations.bones", outdir);
+    FILE *bf = fopen(bpath, "wb");
     if (json) {
         jo = cJSON_CreateObject();
         jvars = cJSON_CreateArray();
     }
-    if (!T || !V || !src || (json && (!jo || !jvars))) {
-        status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory for %d frames", frames);
+    if (!T || !V || !src || !seeds || !rcs || !errs || !bf || (json && (!jo || !jvars)) ||
+        bones_header(bf, count, frames, nb, ncomp, info.fps > 0 ? (float)info.fps : 30.0f)) {
+        if (bf)
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory for %d frames", frames);
+        else
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", bpath, strerror(errno));
+        free(seeds);
+        free(rcs);
+        free(errs);
+        if (bf)
+            fclose(bf);
         goto out;
     }
-    double ej, ea, eamax, worst = 0, worst_acc = 0;
-    example_motion(model, &ej, &ea, &eamax);
-    for (int k = 0; k < count; k++) {
-        rc = mdl_variations_walk(v, (uint64_t)(unsigned)seed + (uint64_t)k, frames, T, V, src, err);
-        if (rc) {
-            status = rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
-            cli_fail(cmd, status, "%s", err);
-            goto out;
-        }
-        char path[4096];
-        snprintf(path, sizeof path, "%s/variation_%03d.pc2", outdir, k);
-        if (mdl_pc2_write(path, V, info.nv, frames, 0.0f, 1.0f, err)) {
-            status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
-            goto out;
-        }
-        double j = max_jump(V, info.nv, frames);
-        worst = j > worst ? j : worst;
-        /* smoothness at the transitions: the largest vertex acceleration within 3 frames */
-        double ta = 0;
-        for (int f = 1; f < frames; f++) {
-            if (src[f] == src[f - 1] + 1)
-                continue;
-            for (int g = f - 3; g <= f + 3; g++)
-                if (g >= 1 && g + 1 < frames) {
-                    double a = accel_at(V, info.nv, g);
-                    ta = a > ta ? a : ta;
+    double ej, ea, eamax, worst = 0, worst_acc = 0, floor_range[2], worst_floor = 0;
+    example_motion(model, &ej, &ea, &eamax, floor_range);
+    cli_pool pool = {threads};
+    walk_batch bt = {v, frames, nb, ncomp, ntargets, targets, seeds, T, NULL, rcs, errs};
+    uint64_t next_seed = (uint64_t)(unsigned)seed + (uint64_t)count;
+    int redrawn = 0, over = 0, met = 0, bad = 0;
+    for (int k0 = 0; k0 < count && !bad; k0 += chunk) {
+        int n = count - k0 < chunk ? count - k0 : chunk;
+        for (int i = 0; i < n; i++)
+            seeds[i] = (uint64_t)(unsigned)seed + (uint64_t)(k0 + i);
+        bt.src = src + (size_t)k0 * frames * ncomp;
+        if (threads > 1)
+            cli_parallel_for(&pool, n, batch_body, &bt);
+        else
+            for (int i = 0; i < n; i++)
+                batch_body(&bt, i, 0);
+        for (int i = 0; i < n; i++) {
+            int k = k0 + i;
+            double *Tk = T + (size_t)i * frames * nb * 12;
+            int *sk = src + (size_t)k * frames * ncomp;
+            /* Sec. 3.4's overlap test against the earlier variations, in order (so the result
+             * does not depend on --threads): a repeat is walked again with the next seed */
+            double ov = 0;
+            for (int tries = 0; !rcs[i]; tries++) {
+                ov = 0;
+                for (int l = 0; l < k; l++) {
+                    double o = mdl_variations_overlap(sk, src + (size_t)l * frames * ncomp, frames, ncomp);
+                    ov = o > ov ? o : ov;
                 }
-        }
-        worst_acc = ta > worst_acc ? ta : worst_acc;
-        if (jvars) {
-            int taken = 0;
-            for (int f = 1; f < frames; f++)
-                taken += src[f] != src[f - 1] + 1;
-            cJSON *e = cJSON_CreateObject();
-            cJSON_AddStringToObject(e, "file", path);
-            cJSON_AddNumberToObject(e, "seed", (double)((unsigned)seed + (unsigned)k));
-            cJSON_AddNumberToObject(e, "start", src[0]);
-            cJSON_AddNumberToObject(e, "transitions_taken", taken);
-            cJSON_AddNumberToObject(e, "max_jump", j);
-            cJSON_AddNumberToObject(e, "max_jump_ratio", ej > 0 ? j / ej : 0);
-            cJSON_AddNumberToObject(e, "transition_max_accel", ta);
-            cJSON_AddNumberToObject(e, "transition_accel_ratio", ea > 0 ? ta / ea : 0);
-            cJSON_AddItemToArray(jvars, e);
+                if (ov <= max_overlap || tries >= 20)
+                    break;
+                seeds[i] = next_seed++;
+                redrawn++;
+                rcs[i] = mdl_variations_walk_targets(v, seeds[i], frames, targets, ntargets, Tk,
+                                                     NULL, sk, errs[i]);
+            }
+            if (rcs[i]) {
+                status = rcs[i] == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
+                cli_fail(cmd, status, "%s", errs[i]);
+                bad = 1;
+                break;
+            }
+            over += ov > max_overlap;
+            int ok = 1;
+            for (int t = 0; t < ntargets; t++)
+                for (int q = 0; q < ncomp; q++)
+                    ok &= sk[(size_t)ncomp * targets[t].out + q] == targets[t].in;
+            met += ok;
+            if (bones_record(bf, seeds[i], Tk, sk, frames, nb, ncomp)) {
+                status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", bpath, strerror(errno));
+                bad = 1;
+                break;
+            }
+            if (k >= npc2)
+                continue;
+            for (int f = 0; f < frames; f++)
+                mdl_variations_skin_frame(v, Tk + (size_t)f * nb * 12, V + 3 * (size_t)f * info.nv);
+            char path[4096];
+            snprintf(path, sizeof path, "%s/variation_%03d.pc2", outdir, k);
+            if (mdl_pc2_write(path, V, info.nv, frames, 0.0f, 1.0f, err)) {
+                status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
+                bad = 1;
+                break;
+            }
+            double j = max_jump(V, info.nv, frames);
+            worst = j > worst ? j : worst;
+            /* the lowest vertex per frame against the example's range of it */
+            double fe = 0;
+            for (int f = 0; f < frames; f++) {
+                double lo = lowest_y(V + 3 * (size_t)f * info.nv, info.nv);
+                double d = lo < floor_range[0] ? floor_range[0] - lo : lo > floor_range[1] ? lo - floor_range[1] : 0;
+                fe = d > fe ? d : fe;
+            }
+            worst_floor = fe > worst_floor ? fe : worst_floor;
+            /* smoothness at the transitions (of any component): the largest vertex acceleration
+             * within 3 frames */
+            double ta = 0;
+            for (int f = 1; f < frames; f++) {
+                int jumped = 0;
+                for (int q = 0; q < ncomp; q++)
+                    jumped |= sk[(size_t)ncomp * f + q] != sk[(size_t)ncomp * (f - 1) + q] + 1;
+                if (!jumped)
+                    continue;
+                for (int g = f - 3; g <= f + 3; g++)
+                    if (g >= 1 && g + 1 < frames) {
+                        double a = accel_at(V, info.nv, g);
+                        ta = a > ta ? a : ta;
+                    }
+            }
+            worst_acc = ta > worst_acc ? ta : worst_acc;
+            if (jvars) {
+                int taken = 0;
+                cJSON *e = cJSON_CreateObject();
+                cJSON *ct = cJSON_AddArrayToObject(e, "components_taken");
+                for (int q = 0; q < ncomp; q++) {
+                    char *seq = walk_taken(sk, ncomp, q, frames, &taken);
+                    if (!seq) {
+                        cJSON_Delete(e);
+                        e = NULL;
+                        break;
+                    }
+                    cJSON_AddItemToArray(ct, cJSON_CreateString(seq));
+                    free(seq);
+                }
+                if (!e) {
+                    status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
+                    bad = 1;
+                    break;
+                }
+                cJSON_AddStringToObject(e, "file", path);
+                cJSON_AddNumberToObject(e, "seed", (double)seeds[i]);
+                cJSON_AddNumberToObject(e, "start", sk[0]);
+                cJSON_AddNumberToObject(e, "transitions_taken", taken);
+                cJSON_AddNumberToObject(e, "overlap", ov);
+                cJSON_AddNumberToObject(e, "max_jump", j);
+                cJSON_AddNumberToObject(e, "floor_excursion", fe);
+                cJSON_AddNumberToObject(e, "max_jump_ratio", ej > 0 ? j / ej : 0);
+                cJSON_AddNumberToObject(e, "transition_max_accel", ta);
+                cJSON_AddNumberToObject(e, "transition_accel_ratio", ea > 0 ? ta / ea : 0);
+                cJSON_AddItemToArray(jvars, e);
+            }
         }
     }
+    free(seeds);
+    free(rcs);
+    free(errs);
+    if (fclose(bf) != 0 && !bad) {
+        status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", bpath, strerror(errno));
+        bad = 1;
+    }
+    if (bad)
+        goto out;
     clock_gettime(CLOCK_MONOTONIC, &t1);
     if (jo) {
         cJSON_AddNumberToObject(jo, "bones", st.bones);
@@ -329,6 +672,11 @@ int cmd_variations(int argc, char **argv)
         cJSON_AddNumberToObject(jo, "max_adjacent", st.max_adjacent);
         cJSON_AddNumberToObject(jo, "tc", st.tc);
         cJSON_AddNumberToObject(jo, "transitions", st.transitions);
+        cJSON_AddNumberToObject(jo, "single_transitions", st.single_transitions);
+        if (add_components(jo, v, &st)) {
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
+            goto out;
+        }
         cJSON_AddNumberToObject(jo, "alive_frames", st.alive_frames);
         cJSON *tl = cJSON_AddArrayToObject(jo, "transition_list");
         for (int k = 0; tl && k < st.transitions; k++) {
@@ -353,6 +701,18 @@ int cmd_variations(int argc, char **argv)
         cJSON_AddNumberToObject(jo, "transition_accel_ratio", ea > 0 ? worst_acc / ea : 0);
         cJSON_AddNumberToObject(jo, "synth_s",
                                 (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec));
+        cJSON_AddNumberToObject(jo, "analysis_s", analysis_s);
+        cJSON_AddNumberToObject(jo, "example_floor_min", floor_range[0]);
+        cJSON_AddNumberToObject(jo, "example_floor_max", floor_range[1]);
+        cJSON_AddNumberToObject(jo, "floor_excursion", worst_floor);
+        cJSON_AddNumberToObject(jo, "threads", threads);
+        cJSON_AddNumberToObject(jo, "targets", ntargets);
+        cJSON_AddNumberToObject(jo, "targets_met", met);
+        cJSON_AddNumberToObject(jo, "max_overlap", max_overlap);
+        cJSON_AddNumberToObject(jo, "overlap_redrawn", redrawn);
+        cJSON_AddNumberToObject(jo, "overlap_kept_over", over);
+        cJSON_AddNumberToObject(jo, "pc2_written", npc2);
+        cJSON_AddStringToObject(jo, "bones_file", bpath);
         cJSON_AddItemToObject(jo, "variations", jvars);
         jvars = NULL;
         int pr = cli_print_json(jo);

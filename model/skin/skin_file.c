@@ -108,6 +108,7 @@ static int skin_parse(mdl__rbuf *b, const mdl_model *m, void **impl)
     k->st.seconds = mdl__get_f64(b, "seconds");
     if (!b->rc && b->at < b->n) {
         k->has_vars = mdl__get_int(b, "variations flag", 1, 1);
+        mdl_variations_opts_default(&k->vars); /* the trailer stores no components: one */
         k->vars.svd_tol = mdl__get_f64(b, "variations svd_tol");
         k->vars.tc_factor = mdl__get_f64(b, "variations tc_factor");
         k->vars.threshold = mdl__get_f64(b, "variations threshold");

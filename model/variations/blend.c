@@ -19,6 +19,13 @@
  *             after i (a splice at the last input frame has none). A splice inside an earlier
  *             window starts from the blended coordinates, so windows chain without a jump.
  *   eq. (10)  F~_b = R~_r R~_b->r,  t~_b = R~_r t~_b->r + t~_r: rotations stay rotations.
+ *   ground    (Sec. 5, the dancers: "the reference bones ... rigidly transformed only on the
+ *             ground plane") the transform of eq. 7 is replaced by its turn about the up axis y
+ *             (the angle atan2(A_02 - A_20, A_00 + A_22) of A = R_r(i) R_r(j)^T, the closest
+ *             such turn) and the horizontal part of its shift, so the reference bone keeps the
+ *             input's height and tilt; what eq. 7 would have matched (the tilt and height of
+ *             frame i against frame j) is carried as an offset of b_r, about its centre, and let
+ *             go linearly over the window like the other bones' offsets.
  * The gradient-domain blend of Sec. 3.3 (key vertices, eq. 8-9) is not implemented. Per step: no
  * allocation (the offsets are sized at init), doubles. */
 #include "variations/variations.h"
@@ -26,6 +33,7 @@
 #include "core/util.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -55,6 +63,8 @@ void mdl__vblend_reset(mdl__vblend *b, const struct mdl_variations *v)
     memcpy(b->G, I, sizeof I);
     memset(b->om, 0, 3 * (size_t)v->nb * sizeof *b->om);
     memset(b->dt, 0, 3 * (size_t)v->nb * sizeof *b->dt);
+    memset(b->rom, 0, sizeof b->rom);
+    memset(b->rdt, 0, sizeof b->rdt);
     b->since = v->o.blend;
 }
 
@@ -87,14 +97,34 @@ static void local(const mdl__vblend *b, const struct mdl_variations *v, int f, i
     }
 }
 
-void mdl__vblend_pose(const mdl__vblend *b, const struct mdl_variations *v, int c, double *T)
+/* the reference bone's world pose at input frame c in the current segment (eq. 7), with the
+ * ground offset at weight s */
+static void ref_pose(const mdl__vblend *b, const struct mdl_variations *v, int c, double s,
+                     double Rr[9], double tr[3])
 {
     const double *Tr = v->T + 12 * ((size_t)c * v->nb + v->ref);
-    double Rr[9], tr[3];
     mdl__mat3_mul(b->G, Tr, Rr);
     for (int a = 0; a < 3; a++)
         tr[a] = b->G[3 * a] * Tr[9] + b->G[3 * a + 1] * Tr[10] + b->G[3 * a + 2] * Tr[11] + b->G[9 + a];
+    if (!v->o.ground || s <= 0)
+        return;
+    /* x = Rr c + tr moves by s rdt; the rotation Exp(s rom) turns about x */
+    const double *cc = v->centre + 3 * (size_t)v->ref;
+    double w[3] = {s * b->rom[0], s * b->rom[1], s * b->rom[2]}, E[9], R2[9], x[3];
+    mdl__so3_exp(w, E);
+    mdl__mat3_mul(E, Rr, R2);
+    for (int a = 0; a < 3; a++)
+        x[a] = Rr[3 * a] * cc[0] + Rr[3 * a + 1] * cc[1] + Rr[3 * a + 2] * cc[2] + tr[a] + s * b->rdt[a];
+    memcpy(Rr, R2, sizeof R2);
+    for (int a = 0; a < 3; a++)
+        tr[a] = x[a] - (Rr[3 * a] * cc[0] + Rr[3 * a + 1] * cc[1] + Rr[3 * a + 2] * cc[2]);
+}
+
+void mdl__vblend_pose(const mdl__vblend *b, const struct mdl_variations *v, int c, double *T)
+{
+    double Rr[9], tr[3];
     double s = weight(b, v);
+    ref_pose(b, v, c, s, Rr, tr);
     for (int k = 0; k < v->nb; k++) {
         double R[9], t[3];
         local(b, v, c, k, s, R, t);
@@ -126,10 +156,19 @@ void mdl__vblend_splice(mdl__vblend *b, const struct mdl_variations *v, int i, i
     /* eq. (7): G <- G * (T_r(i) T_r(j)^-1) */
     const double *Ti = v->T + 12 * ((size_t)i * v->nb + v->ref);
     const double *Tj = v->T + 12 * ((size_t)j * v->nb + v->ref);
-    double A[9], At[3], G[12];
+    double A[9], At[3], G[12], Ri[9], ti[3];
+    if (v->o.ground)
+        ref_pose(b, v, i, s, Ri, ti); /* where b_r is shown at i, offsets included */
     mdl__mat3_mul_t(Ti, Tj, A);
+    if (v->o.ground) { /* the closest turn about y */
+        double th = atan2(A[2] - A[6], A[0] + A[8]), c = cos(th), sn = sin(th);
+        const double Y[9] = {c, 0, sn, 0, 1, 0, -sn, 0, c};
+        memcpy(A, Y, sizeof Y);
+    }
     for (int a = 0; a < 3; a++)
         At[a] = Ti[9 + a] - (A[3 * a] * Tj[9] + A[3 * a + 1] * Tj[10] + A[3 * a + 2] * Tj[11]);
+    if (v->o.ground)
+        At[1] = 0;
     mdl__mat3_mul(b->G, A, G);
     for (int a = 0; a < 3; a++)
         G[9 + a] = b->G[3 * a] * At[0] + b->G[3 * a + 1] * At[1] + b->G[3 * a + 2] * At[2] + b->G[9 + a];
@@ -139,6 +178,21 @@ void mdl__vblend_splice(mdl__vblend *b, const struct mdl_variations *v, int i, i
     mdl__quat_to_mat(q, b->G);
     memcpy(b->G + 9, G + 9, 3 * sizeof *G);
     b->since = 0;
+    if (v->o.ground && v->o.blend > 0) {
+        /* the offset that carries b_r at j (new segment) onto where it was shown at i */
+        double Rj[9], tj[3], E[9], xi[3], xj[3];
+        memset(b->rom, 0, sizeof b->rom);
+        memset(b->rdt, 0, sizeof b->rdt);
+        ref_pose(b, v, j, 0, Rj, tj);
+        mdl__mat3_mul_t(Ri, Rj, E);
+        mdl__so3_log(E, b->rom);
+        const double *cc = v->centre + 3 * (size_t)v->ref;
+        for (int a = 0; a < 3; a++) {
+            xi[a] = Ri[3 * a] * cc[0] + Ri[3 * a + 1] * cc[1] + Ri[3 * a + 2] * cc[2] + ti[a];
+            xj[a] = Rj[3 * a] * cc[0] + Rj[3 * a + 1] * cc[1] + Rj[3 * a + 2] * cc[2] + tj[a];
+            b->rdt[a] = xi[a] - xj[a];
+        }
+    }
 }
 
 void mdl__vblend_advance(mdl__vblend *b)

@@ -11,7 +11,12 @@
  *   eq. (5)          D(i, j) = |q_i - q_j|^2 + alpha |qdot_i - qdot_j|^2 + beta |r_i - r_j|^2,
  *                    qdot_t = q_t - q_{t-1}, alpha = max |q|^2 / max |qdot|^2,
  *                    beta = max |q|^2 / max |r|^2
- *   candidates       D(i, j) < T_c = 40 max_i D(i, i-1)
+ *   candidates       D(i, j) < T_c = tc_factor max_i D(i, i-1); the printed text says 40, we
+ *                    default to 1/40 (docs/MODEL.md: with any D that is a squared distance
+ *                    between smoothly changing states, 40 max_i D(i, i-1) admits every pair of
+ *                    frames up to about 6 apart, and on horse-gallop and samba it is above the
+ *                    largest D of all pairs, while 1/40 gives the horse exactly its pairs of
+ *                    corresponding frames, the paper's finding)
  * (the printed text of alpha reads max|q|^2 / max|q|^2; balancing the terms "so that none of them
  * dominates" needs the velocity's maximum below, as beta has the r's.)
  * D needs frames i - 1 and j - 1, so frame 0 is no endpoint. Where the paper keeps every pair below
@@ -36,7 +41,7 @@ void mdl_variations_opts_default(mdl_variations_opts *o)
 {
     memset(o, 0, sizeof *o);
     o->svd_tol = 0.005;
-    o->tc_factor = 40;
+    o->tc_factor = 1.0 / 40;
     o->threshold = 0;
     o->min_gap = 3;
     o->blend = 8;
@@ -44,6 +49,8 @@ void mdl_variations_opts_default(mdl_variations_opts *o)
     o->temperature = 0.1;
     o->min_segment = 8;
     o->start = -1;
+    o->components = 1;
+    o->te_factor = 0.1;
 }
 
 void mdl_variations_destroy(mdl_variations *v)
@@ -63,6 +70,8 @@ void mdl_variations_destroy(mdl_variations *v)
     free(v->bone);
     free(v->w);
     free(v->centre);
+    free(v->wsum);
+    mdl__components_fini(v);
     free(v);
 }
 
@@ -108,6 +117,13 @@ void mdl_variations_get_stats(const mdl_variations *v, mdl_variations_stats *st)
     st->beta = v->beta;
     st->max_adjacent = v->max_adjacent;
     st->tc = v->tc;
+    st->components = v->ncomp > 1 ? v->ncomp : 1;
+    st->single_transitions = v->ntrans;
+    if (v->ncomp > 1) {
+        st->transitions = 0;
+        for (int c = 0; c < v->ncomp; c++)
+            st->transitions += v->comp[c].g->ntrans;
+    }
 }
 
 int mdl_variations_transition(const mdl_variations *v, int k, int *from, int *to, double *cost)
@@ -283,6 +299,25 @@ static int find_transitions(struct mdl_variations *v, char *err)
     return 0;
 }
 
+int mdl__variations_analyse(struct mdl_variations *v, char *err)
+{
+    v->ref = 0;
+    for (int b = 1; b < v->nb; b++)
+        if (v->wsum[b] > v->wsum[v->ref])
+            v->ref = b;
+    size_t nt = (size_t)v->nframes * v->nb;
+    v->LR = mdl__calloc(9 * nt, sizeof *v->LR);
+    v->Lt = mdl__calloc(3 * nt, sizeof *v->Lt);
+    v->rvec = mdl__calloc(6 * (size_t)v->nframes, sizeof *v->rvec);
+    if (!v->LR || !v->Lt || !v->rvec)
+        return mdl__err(err, -ENOMEM, "variations: out of memory");
+    local_frames(v);
+    int rc = reduce(v, err);
+    if (!rc)
+        rc = find_transitions(v, err);
+    return rc;
+}
+
 int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_variations **out,
                          char *err)
 {
@@ -309,7 +344,8 @@ int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_v
         mdl_variations_opts_default(&v->o);
     if (!(v->o.svd_tol >= 0 && v->o.svd_tol < 1) || v->o.min_gap < 0 || v->o.blend < 0 ||
         !(v->o.jump_prob >= 0 && v->o.jump_prob <= 1) || !(v->o.temperature >= 0) || v->o.min_segment < 0 ||
-        v->o.start >= N || !(v->o.tc_factor > 0 || v->o.threshold > 0)) {
+        v->o.start >= N || !(v->o.tc_factor > 0 || v->o.threshold > 0) ||
+        v->o.components < 0 || v->o.components > 1 || v->o.ground < 0 || v->o.ground > 1 || !(v->o.te_factor >= 0 && v->o.te_factor <= 1)) {
         mdl_variations_destroy(v);
         return mdl__err(err, -EINVAL, "variations: options out of range");
     }
@@ -319,17 +355,13 @@ int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_v
     v->K = K;
     size_t nt = (size_t)N * nb, nk = (size_t)info.nv * K;
     v->T = mdl__calloc(12 * nt, sizeof *v->T);
-    v->LR = mdl__calloc(9 * nt, sizeof *v->LR);
-    v->Lt = mdl__calloc(3 * nt, sizeof *v->Lt);
-    v->rvec = mdl__calloc(6 * (size_t)N, sizeof *v->rvec);
     v->rest = mdl__calloc(3 * (size_t)info.nv, sizeof *v->rest);
     v->bone = mdl__calloc(nk, sizeof *v->bone);
     v->w = mdl__calloc(nk, sizeof *v->w);
     v->centre = mdl__calloc(3 * (size_t)nb, sizeof *v->centre);
-    double *wsum = mdl__calloc(nb, sizeof *wsum);
+    double *wsum = v->wsum = mdl__calloc(nb, sizeof *wsum);
     int rc = 0;
-    if (!v->T || !v->LR || !v->Lt || !v->rvec || !v->rest || !v->bone || !v->w || !v->centre ||
-        !wsum) {
+    if (!v->T || !v->rest || !v->bone || !v->w || !v->centre || !wsum) {
         rc = mdl__err(err, -ENOMEM, "variations: out of memory");
         goto out;
     }
@@ -345,16 +377,10 @@ int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_v
     for (int b = 0; b < nb; b++)
         for (int c = 0; c < 3; c++)
             v->centre[3 * b + c] = wsum[b] > 0 ? v->centre[3 * b + c] / wsum[b] : 0;
-    v->ref = 0;
-    for (int b = 1; b < nb; b++)
-        if (wsum[b] > wsum[v->ref])
-            v->ref = b;
-    local_frames(v);
-    rc = reduce(v, err);
-    if (!rc)
-        rc = find_transitions(v, err);
+    rc = mdl__variations_analyse(v, err);
+    if (!rc && v->o.components == 0)
+        rc = mdl__components_build(v, bone, w, err);
 out:
-    free(wsum);
     if (rc) {
         mdl_variations_destroy(v);
         return rc;
@@ -369,7 +395,13 @@ int mdl_variations_attach(mdl_model *m, const mdl_variations_opts *o, uint64_t s
     if (!slot)
         return mdl__err(err, -ENOENT, "variations: the model holds no skin");
     mdl_variations *v = NULL;
-    int rc = mdl_variations_build(m, o, &v, err);
+    mdl_variations_opts one;
+    if (o)
+        one = *o;
+    else
+        mdl_variations_opts_default(&one);
+    one.components = 1;
+    int rc = mdl_variations_build(m, &one, &v, err);
     if (rc)
         return rc;
     int alive = v->nalive;
@@ -382,6 +414,10 @@ int mdl_variations_attach(mdl_model *m, const mdl_variations_opts *o, uint64_t s
     struct mdl_skin *k = slot->impl;
     k->has_vars = 1;
     k->vars = vo;
+    /* the SKIN trailer stores no component options: the idle source walks one component */
+    k->vars.components = 1;
+    k->vars.te_factor = 0.1;
+    k->vars.ground = 0;
     k->vars_seed = seed;
     return 0;
 }

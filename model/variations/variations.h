@@ -3,10 +3,17 @@
  *   so3.c          Phi (axis-angle, the matrix logarithm of Sec. 3.2) and its inverse
  *   transitions.c  Sec. 3.2: reference bone, local-frame bone positions (eq. 2), reduced
  *                  coordinates (eq. 3-4), transition cost D(i, j) (eq. 5-6), candidates below T_c
- *   blend.c        Sec. 3.3: the reference bone matched rigidly (eq. 7) and the linear blend of
+ *   blend.c        Sec. 3.3: the reference bone matched rigidly (eq. 7; or on the ground plane,
+ *                  Sec. 5) and the linear blend of
  *                  the local bone coordinates over a window (the comparison of Fig. 6), back to the
  *                  world frame (eq. 10)
  *   walk.c         Sec. 3.4: random walks on the motion graph, one output frame per step
+ *   bone_graph.c   Sec. 4.1: the bone graph (eq. 11), T_e, cut nodes, the blocks between them
+ *   components.c   Sec. 4: the components synthesised apart and the order they are merged in
+ *   merge.c        Sec. 4.2: Algorithm 1, D_C (eq. 12), the cut node (eq. 13) and the merged
+ *                  component's bones (eq. 14)
+ *   target.c       Sec. 3.4: targeted frames (backward reachability, the walk restricted)
+ *   overlap.c      Sec. 3.4: how much two walks overlap
  *
  * paper -> code:
  *   N frames, |B| bones   nframes, nb (the skin's fitted frames, in order, and its bones)
@@ -25,6 +32,18 @@
 #include "model.h"
 
 #include <stdint.h>
+
+struct mdl__bone_graph;
+
+/* A component of Sec. 4 (components.c): its own transition graph over its bones. */
+typedef struct mdl__vcomp {
+    struct mdl_variations *g; /* over nb bones, in the order of bones[] */
+    int nb;
+    int *bones;      /* nb global bone ids, ascending */
+    int parent;      /* the component it is merged into (-1: the anchor, component 0) */
+    int cut;         /* global id of the cut node shared with the parent (-1 for the anchor) */
+    int cut_local;   /* its index in bones[] */
+} mdl__vcomp;
 
 struct mdl_variations {
     mdl_variations_opts o;
@@ -47,7 +66,47 @@ struct mdl_variations {
     int *bone;       /* nv x K */
     float *w;        /* nv x K */
     double *centre;  /* nb x 3: each bone's weighted centroid of the rest pose (blend.c) */
+    double *wsum;    /* nb: sum_i w_ib */
+    /* Sec. 4 (components.c): ncomp > 1 when walks are synthesised per component */
+    int ncomp;
+    mdl__vcomp *comp;              /* ncomp, parents before children */
+    struct mdl__bone_graph *bg;    /* the bone graph (NULL with components 1) */
 };
+
+/* transitions.c: the reference bone, eq. 2-6 and the transitions of v (nb, nframes, T, wsum,
+ * centre and o set). */
+int mdl__variations_analyse(struct mdl_variations *v, char *err);
+/* components.c: v->comp from the bone graph of the skin (bone, w: nv x K). */
+int mdl__components_build(struct mdl_variations *v, const int *bone, const double *w, char *err);
+void mdl__components_fini(struct mdl_variations *v);
+
+/* merge.c (Sec. 4.2): polar decomposition F = U S (F row-major 3x3); D_C of eq. 12 between the
+ * cut node's series Fa, Fb (frames, a stride of `stride` doubles between frames, 3x3 row-major at
+ * the start of each), and its threshold 0.05 max_t {|S_a(t)|_F^2, |S_b(t)|_F^2}. */
+void mdl__polar(const double F[9], double U[9], double S[9]);
+double mdl__merge_cost(const double *Fa, size_t sa, const double *Fb, size_t sb, int frames,
+                       double *threshold);
+/* eq. 13-14 for one frame: T (all bones x 12) holds the anchor's bones, among them c->cut; Tc
+ * (c->nb x 12, the order of c->bones) the component's; writes the cut node and c's other bones. */
+void mdl__merge_frame(const mdl__vcomp *c, const double *Tc, double *T);
+
+/* bone_graph.c: the bone graph of a skin and its blocks (Sec. 4.1). */
+typedef struct mdl__bone_graph {
+    int nb;
+    double *d;          /* nb x nb: d_ij of eq. 11 (0: no edge) */
+    uint8_t *kept;      /* nb x nb: 1 where the edge survives T_e (or connectivity needs it) */
+    double dmax, te;    /* max d_ij, T_e */
+    int nedges_all, nedges, nrescued; /* edges before T_e, kept, kept below T_e for connectivity */
+    uint8_t *cut;       /* nb: 1 for a cut node */
+    int nblocks;
+    int *block_off;     /* nblocks + 1 */
+    int *block_bone;    /* the bones of block k: [block_off[k], block_off[k + 1]), ascending */
+} mdl__bone_graph;
+
+/* bone (nv x K) and w (nv x K) as mdl_skin_get; te_factor in [0, 1]. Fills g (fini frees). */
+int mdl__bone_graph_build(mdl__bone_graph *g, int nb, int nv, int K, const int *bone,
+                          const double *w, double te_factor, char *err);
+void mdl__bone_graph_fini(mdl__bone_graph *g);
 
 /* so3.c: Phi(R) (row-major R, a rotation) as an axis-angle vector of angle in [0, pi], and back. */
 void mdl__so3_log(const double R[9], double w[3]);
@@ -65,6 +124,8 @@ typedef struct mdl__vblend {
     double *om;      /* nb x 3: offset rotations Phi at the last transition */
     double *dt;      /* nb x 3: offset translations of the bone's centre */
     int since;       /* output frames since the last transition (>= blend: no offset) */
+    double rom[3], rdt[3]; /* o.ground: the reference bone's offset rotation (Phi, about its
+                              centre) and translation at the last splice, let go over the window */
 } mdl__vblend;
 
 int mdl__vblend_init(mdl__vblend *b, const struct mdl_variations *v);
@@ -84,14 +145,32 @@ typedef struct mdl__vwalk {
     uint64_t rng;
     int cur;         /* the input frame of the next output frame */
     int seg;         /* output frames since the last transition */
+    /* several components (v->ncomp > 1): one walker each, merged per frame (merge.c) */
+    int ncomp;
+    struct mdl__vwalk *sub;
+    double *Tc;      /* sum of the components' nb x 12: their frames before the merge */
+    int *src;        /* ncomp: each component's input frame of the last step */
 } mdl__vwalk;
 
 int mdl__vwalk_init(mdl__vwalk *w, const struct mdl_variations *v, uint64_t seed, char *err);
 void mdl__vwalk_fini(mdl__vwalk *w);
 /* Back to the start of the walk of `seed` (no allocation). */
 void mdl__vwalk_reset(mdl__vwalk *w, uint64_t seed);
+/* The seed of component c's walk in the walk of `seed`, and the common start frame. */
+uint64_t mdl__vwalk_comp_seed(uint64_t seed, int c);
+int mdl__vwalk_start(const struct mdl_variations *v, uint64_t seed);
+/* A single-component walker from input frame `start` (alive) with its own seed. */
+void mdl__vwalk_reset_at(mdl__vwalk *w, uint64_t seed, int start);
 /* Writes the next output frame's bone transforms (nb x 12) and returns its input frame. */
 int mdl__vwalk_step(mdl__vwalk *w, double *T);
+/* The same for a single-component walker whose next input frame must have ok[n] != 0 (nframes;
+ * NULL: any). The caller guarantees that some successor is allowed (target.c). */
+int mdl__vwalk_step_to(mdl__vwalk *w, double *T, const uint8_t *ok);
+/* The batch walk of frames output frames (walk.c), per component, next input frames restricted
+ * by masks[c] (frames x the component's nframes, 1 = allowed at that output frame; masks or a
+ * mask NULL: free) from input frame start (-1: the seed's); src frames x components. */
+int mdl__variations_walk_masked(const struct mdl_variations *v, uint64_t seed, int frames,
+                                uint8_t *const *masks, int start, double *T, int *src, char *err);
 /* Skins one frame: V (nv x 3) from bone transforms T (nb x 12). */
 void mdl__variations_skin(const struct mdl_variations *v, const double *T, float *V);
 

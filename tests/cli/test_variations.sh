@@ -4,7 +4,10 @@
 # the same for the same seed and differ across seeds, with no frame-to-frame vertex jump above 3x
 # the example's own, and the blend lowers the acceleration at transitions; --add-to makes a
 # model's skin walk; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames
-# with the same bound. Usage: test_variations.sh MESHSTEER SRC DATA
+# with the same bound, one component joining only corresponding frames, components auto walking
+# the tail apart (contact sheets of 4 variations: $MESHSTEER_SHEETS or the scratch directory),
+# targeted frames, --threads, the bone file; then samba's --ground, targets and smoothness.
+# Usage: test_variations.sh MESHSTEER SRC DATA
 set -euo pipefail
 ms=$1 src=$2 data=$3
 source "$(dirname "$0")/lib.sh"
@@ -31,7 +34,7 @@ cp "$dir/out" "$dir/a.json"
 n=$(json_num "$dir/a.json" transitions)
 [ "$n" -gt 0 ] || fail "no transitions on the example's walk"
 tc=$(json_num "$dir/a.json" tc) madj=$(json_num "$dir/a.json" max_adjacent)
-awk -v t="$tc" -v m="$madj" 'BEGIN { exit !(t > 39.99 * m && t < 40.01 * m) }' || fail "T_c $tc is not 40 x $madj"
+awk -v t="$tc" -v m="$madj" 'BEGIN { exit !(t * 40 > 0.9999 * m && t * 40 < 1.0001 * m) }' || fail "T_c $tc is not $madj / 40"
 ratio=$(json_num "$dir/a.json" max_jump_ratio)
 echo "example: $n transitions, T_c $tc, worst jump $ratio x the example's"
 le "$ratio" 3 || fail "a jump of $ratio x the example's"
@@ -41,17 +44,43 @@ for k in 000 001 002; do
     [ "$(stat -c %s "$f")" = "$(pc2_size 100 "$nv")" ] || fail "$f is not 100 frames of $nv vertices"
 done
 expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 2 --frames 100 --seed 5 -o "$dir/b"
-# the linear blend smooths the transitions: with the same walks (same seeds), the largest vertex
-# acceleration near a transition is lower than with no blend
-expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --blend 0 -o "$dir/c" --json
-acc8=$(json_num "$dir/a.json" transition_max_accel) acc0=$(json_num "$dir/out" transition_max_accel)
-echo "example: largest acceleration near a transition $acc8 blended, $acc0 not" \
-     "(the example's 99th percentile $(json_num "$dir/a.json" example_p99_accel), largest $(json_num "$dir/a.json" example_max_accel))"
+# the linear blend smooths the transitions: with the same walks (same seeds) under the printed
+# loose T_c (40 x max D(i, i-1)), the largest vertex acceleration near a transition is lower than
+# with no blend
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --tc-factor 40 -o "$dir/c8" --json
+acc8=$(json_num "$dir/out" transition_max_accel)
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --tc-factor 40 --blend 0 -o "$dir/c" --json
+acc0=$(json_num "$dir/out" transition_max_accel)
+echo "example (T_c 40 x max D(i, i-1)): largest acceleration near a transition $acc8 blended, $acc0 not" \
+     "(the example's 99th percentile $(json_num "$dir/a.json" example_p99_accel), largest $(json_num "$dir/a.json" example_max_accel));" \
+     "at the default T_c $(json_num "$dir/a.json" transition_max_accel)"
 awk -v a="$acc8" -v b="$acc0" 'BEGIN { exit !(a < b) }' || fail "the blend does not smooth: $acc8 vs $acc0"
 cmp -s "$dir/a/variation_000.pc2" "$dir/b/variation_000.pc2" || fail "seed 5 gave two animations"
 cmp -s "$dir/a/variation_001.pc2" "$dir/b/variation_001.pc2" || fail "seed 6 gave two animations"
 ! cmp -s "$dir/a/variation_000.pc2" "$dir/a/variation_001.pc2" || fail "seeds 5 and 6 gave one animation"
 ! cmp -s "$dir/a/variation_001.pc2" "$dir/a/variation_002.pc2" || fail "seeds 6 and 7 gave one animation"
+
+# the bone file: header, then per variation seed, bones x 12 float32 per frame, components int32
+# per frame; identical for any --threads; --pc2 0 writes no meshes
+bsize() { echo $((28 + $1 * (8 + $2 * $3 * 48 + $2 * $4 * 4))); }
+[ "$(stat -c %s "$dir/a/variations.bones")" = "$(bsize 3 100 8 "$(json_num "$dir/a.json" component_count)")" ] \
+    || fail "variations.bones is not 3 x 100 frames of 8 bones"
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 9 --frames 100 --seed 5 --threads 1 --pc2 0 -o "$dir/t1"
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 9 --frames 100 --seed 5 --threads 2 --pc2 0 -o "$dir/t2"
+cmp -s "$dir/t1/variations.bones" "$dir/t2/variations.bones" || fail "--threads 1 and 2 differ"
+cmp -s <(head -c "$(stat -c %s "$dir/b/variations.bones")" "$dir/t1/variations.bones" | tail -c +29 | head -c 1000) \
+       <(tail -c +29 "$dir/b/variations.bones" | head -c 1000) || fail "the first variation depends on --count"
+! ls "$dir/t1"/*.pc2 >/dev/null 2>&1 || fail "--pc2 0 wrote meshes"
+# targeted frames: --start, --end and --target met exactly in every variation (the example
+# loops every 75 frames and its transitions keep that phase: input = 10 + output mod 75)
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 6 --frames 120 --start 10 --end 54 \
+    --target 70:60 -o "$dir/tg" --json
+[ "$(json_num "$dir/out" targets)" = 3 ] || fail "targets: $(json_num "$dir/out" targets), not 3"
+[ "$(json_num "$dir/out" targets_met)" = 6 ] || fail "targets met by $(json_num "$dir/out" targets_met) of 6"
+echo "example (period 75): --start 10 --end 54 --target 70:60 met by 6 of 6 variations"
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --start 10 --end 40 -o "$dir/tg"
+grep -q "no walk meets the targets" "$dir/err" || fail "an impossible target is not refused"
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --target 3x -o "$dir/tg"
 
 # --add-to: the skin beside a steering model walks (the daemon's idle source); a steering model
 # alone is refused
@@ -69,10 +98,54 @@ grep -q "endless random walk.*seed 9" "$dir/out" || { cat "$dir/out"; fail "the 
 horse=$data/meshes/horse-gallop
 if [ ! -d "$horse" ]; then echo "skip: $horse not found (real-data part)"; exit 0; fi
 expect_status 0 "$ms" skin --mesh "$horse" --bones 22 --threads 1 -o "$dir/horse.msm"
+# one component: only corresponding frames of the two cycles (24 apart) are joined
+expect_status 0 "$ms" variations --model "$dir/horse.msm" --components 1 --count 4 --frames 336 -o "$dir/h1" --json
+awk '/"from"/ { f = $2 + 0 } /"to"/ { t = $2 + 0; d = f - t; if (d != 24 && d != -24) bad++ } END { exit bad > 0 }' \
+    "$dir/out" || fail "horse, one component: a transition between frames not 24 apart"
+[ "$(json_num "$dir/out" component_count)" = 1 ] || fail "--components 1 gave several"
+echo "horse, one component: $(json_num "$dir/out" transitions) transitions, all between corresponding frames"
+# components auto: the bone graph's blocks walk apart (the tail among them)
 expect_status 0 "$ms" variations --model "$dir/horse.msm" --count 4 --frames 336 -o "$dir/h" --json
 cp "$dir/out" "$dir/h.json"
+nc=$(json_num "$dir/h.json" component_count)
+[ "$nc" -ge 2 ] || fail "horse: $nc components"
 ratio=$(json_num "$dir/h.json" max_jump_ratio)
-echo "horse: $(json_num "$dir/h.json" transitions) transitions, T_c $(json_num "$dir/h.json" tc)," \
-     "4 x 336 frames in $(json_num "$dir/h.json" synth_s) s, worst jump $ratio x the example's"
+echo "horse: $nc components, $(json_num "$dir/h.json" transitions) transitions" \
+     "($(json_num "$dir/h.json" single_transitions) as one), 4 x 336 frames in" \
+     "$(json_num "$dir/h.json" synth_s) s, worst jump $ratio x the example's"
+tr -d '\n\t' < "$dir/h.json" | grep -o '"bones":\[[0-9, ]*\],"cut":-\?[0-9]*' | sed 's/^/  component: /'
 le "$ratio" 3 || fail "horse: a jump of $ratio x the example's"
+# the four variations differ (the merged walks), and a contact sheet of each is kept
+for k in 001 002 003; do
+    ! cmp -s "$dir/h/variation_000.pc2" "$dir/h/variation_$k.pc2" || fail "horse: variations 0 and $k are one"
+done
+sheets=${MESHSTEER_SHEETS:-$dir}
+mkdir -p "$sheets"
+for k in 000 001 002 003; do
+    expect_status 0 "$ms" render --mesh "$dir/h/variation_$k.pc2" --rest "$horse/0001.obj" \
+        --frames 0:336:42 --cols 8 --size 160 -o "$sheets/horse_variation_$k.png"
+done
+echo "horse: contact sheets of 4 variations (8 frames each, 42 apart) in $sheets"
+# samba (40 bones; its transitions let a 600-frame walk from frame 20 end only at frames 140-170):
+# --ground keeps the lowest vertex of every frame within 2 cm of the example's
+# range of it, --start/--end are met exactly, and the transitions are smooth (the largest vertex
+# acceleration within 3 frames of one <= 1.5 x the example's 99th percentile)
+samba=$data/meshes/samba
+if [ ! -d "$samba" ]; then echo "skip: $samba not found"; echo "variations_cli: ok"; exit 0; fi
+expect_status 0 "$ms" skin --mesh "$samba/samba.pc2" --rest "$samba/rest.obj" --bones 40 -o "$dir/samba.msm"
+expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 -o "$dir/s0" --json
+drift=$(json_num "$dir/out" floor_excursion)
+rm -rf "$dir/s0"
+expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 --ground \
+    --start 20 --end 150 -o "$dir/s" --json
+cp "$dir/out" "$dir/s.json"
+fe=$(json_num "$dir/s.json" floor_excursion) acc=$(json_num "$dir/s.json" transition_accel_ratio)
+echo "samba: $(json_num "$dir/s.json" transitions) transitions, $(json_num "$dir/s.json" component_count)" \
+     "component(s); lowest vertex outside the example's range by $fe m with --ground ($drift without);" \
+     "transition acceleration $acc x the example's p99; targets met by $(json_num "$dir/s.json" targets_met) of 4;" \
+     "analysis $(json_num "$dir/s.json" analysis_s) s"
+le "$fe" 0.02 || fail "samba --ground: the lowest vertex leaves the floor by $fe m"
+le "$acc" 1.5 || fail "samba: transition acceleration $acc x the example's 99th percentile"
+[ "$(json_num "$dir/s.json" targets_met)" = 4 ] || fail "samba: --start/--end not met"
+rm -rf "$dir/s"
 echo "variations_cli: ok"

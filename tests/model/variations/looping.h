@@ -143,4 +143,21 @@ static inline float *lp_skin_frames(const mdl_model *m, int *nframes)
     return V;
 }
 
+/* the tube of lp_sequence(frames, period) (*seq, caller frees) and a skin of `bones` bones fitted
+ * to all of its frames (NULL on failure, the reason in err) */
+static inline mdl_model *lp_fit(int frames, int period, int bones, mdl_meshseq **seq, char *err)
+{
+    *seq = lp_sequence(frames, period);
+    int *idx = calloc(frames, sizeof *idx);
+    for (int i = 0; i < frames; i++)
+        idx[i] = i;
+    mdl_skin_opts so;
+    mdl_skin_opts_default(&so);
+    so.bones = bones;
+    mdl_model *m = NULL;
+    int rc = mdl_skin_fit(*seq, idx, frames, &so, &m, err);
+    free(idx);
+    return rc ? NULL : m;
+}
+
 #endif

@@ -17,15 +17,9 @@ int main(void)
     mdl_set_blas_threads(1);
     char err[MDL_ERR_LEN] = "";
     const int N = 60, P = 20;
-    mdl_meshseq *s = lp_sequence(N, P);
-    int idx[60];
-    for (int i = 0; i < N; i++)
-        idx[i] = i;
-    mdl_skin_opts so;
-    mdl_skin_opts_default(&so);
-    so.bones = 3;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_skin_fit(s, idx, N, &so, &m, err), err);
+    mdl_meshseq *s = NULL;
+    mdl_model *m = lp_fit(N, P, 3, &s, err);
+    ASSERT_OK(m ? 0 : -1, err);
     mdl_skin_stats sst;
     mdl_skin_get_stats(m, &sst);
     printf("skin: 3 bones, rmse %.2e (%.4f %% of the diagonal)\n", sst.rmse, 100 * sst.rmse_over_diag);
@@ -39,7 +33,7 @@ int main(void)
            st.max_adjacent, st.tc, st.transitions, st.alive_frames);
     ASSERT_INT_EQ(st.bones, 3);
     ASSERT_INT_EQ(st.frames, N);
-    ASSERT_NEAR(st.tc, 40 * st.max_adjacent, 1e-12 * st.tc);
+    ASSERT_NEAR(st.tc, st.max_adjacent / 40, 1e-12 * st.tc);
     ASSERT_INT_GE(st.rank, 1);
     ASSERT_INT_LE(st.rank, 12);
     ASSERT_INT_EQ(st.alive_frames, N);
@@ -88,7 +82,12 @@ int main(void)
     ASSERT_INT_EQ(mdl_variations_transition(v, st.transitions, NULL, NULL, NULL), -ERANGE);
     /* rigid invariance: the drift does not show in D */
     for (int i = 1; i + P < N; i++)
-        ASSERT_LT_I(mdl_variations_cost(v, i, i + P), 1e-3 * st.tc, i);
+        ASSERT_LT_I(mdl_variations_cost(v, i, i + P), 0.04 * st.max_adjacent, i);
+    /* the printed T_c = 40 max D(i, i-1) admits every pair up to 6 frames apart (D grows about
+     * as the square of the frame distance on a smooth motion: sqrt 40 > 6) */
+    for (int i = 1; i + 6 < N; i++)
+        for (int k = 1; k <= 6; k++)
+            ASSERT_LT_I(mdl_variations_cost(v, i, i + k), 40 * st.max_adjacent, i * 10 + k);
     /* half a period apart: other joint angles, farther than any two neighbours */
     for (int i = 1; i + P / 2 < N; i++)
         ASSERT_GT_I(mdl_variations_cost(v, i, i + P / 2), 5 * st.max_adjacent, i);

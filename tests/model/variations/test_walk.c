@@ -85,15 +85,9 @@ static void test_looping(void)
 {
     char err[MDL_ERR_LEN] = "";
     const int N = 60, P = 20;
-    mdl_meshseq *s = lp_sequence(N, P);
-    int idx[60];
-    for (int i = 0; i < N; i++)
-        idx[i] = i;
-    mdl_skin_opts so;
-    mdl_skin_opts_default(&so);
-    so.bones = 3;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_skin_fit(s, idx, N, &so, &m, err), err);
+    mdl_meshseq *s = NULL;
+    mdl_model *m = lp_fit(N, P, 3, &s, err);
+    ASSERT_OK(m ? 0 : -1, err);
     int nf = 0;
     float *E = lp_skin_frames(m, &nf);
     mdl_model_info info;
