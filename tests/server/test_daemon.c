@@ -511,22 +511,6 @@ static void scenario_kinds(void)
 
 /* ------------------------------------------------------------------ slow */
 
-/* A WebSocket client on a raw socket that completes the handshake and then never reads. */
-static int stalled_client(int port)
-{
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    int small = 4096;
-    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
-    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
-    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ASSERT(connect(fd, (struct sockaddr *)&sa, sizeof sa) == 0);
-    const char *req = "GET /stream HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\n"
-                      "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
-                      "Sec-WebSocket-Version: 13\r\n\r\n";
-    ASSERT(write(fd, req, strlen(req)) == (ssize_t)strlen(req));
-    return fd;
-}
-
 static void scenario_slow(void)
 {
     start_default("--encoding", "float32");
@@ -549,7 +533,7 @@ static void scenario_slow(void)
     }
     int fds[4];
     for (int i = 0; i < 4; i++)
-        fds[i] = stalled_client(H.port);
+        fds[i] = harness_stalled_client(&H);
     run_until(ctx, A, A->total_frames + 30, 0, 5000); /* the stalled sockets fill up */
     long rss0 = harness_rss_kb(&H);
     uint64_t f0 = A->total_frames;
@@ -741,15 +725,13 @@ static void scenario_origin(void)
 
 /* ------------------------------------------------------------------ idle */
 
-static int stalled_client(int port);
-
 static void scenario_idle(void)
 {
     start_default("--idle-timeout", "2");
     struct lws_context *ctx = wsc_context();
     wsc *A = wsc_connect(ctx, H.port, NULL, 0);
     run_until(ctx, A, 10, 0, 15000);
-    int fd = stalled_client(H.port);
+    int fd = harness_stalled_client(&H);
     uint64_t t0 = wsc_now_us();
     /* the stalled socket fills within a few frames; 2 s later the daemon closes it */
     while (harness_metric(&H, "meshsteer_closed_idle_total") < 1 && wsc_now_us() - t0 < 10000000)
