@@ -19,8 +19,9 @@
  *            keeps the map over a SIGHUP reload; a map leaving one marker unbound (bound false, live
  *            the label looked for); the same map from a config file's `labels =`
  *   http     HTTP answers: HEAD (the GET's headers, no body), another method 405 with Allow, an
- *            overlong URI 414; a WebSocket frame header claiming 2^40 bytes closes its connection
- *            at once (not after the client sends them)
+ *            overlong URI or query 414, request headers over 8 KiB (one 100 KB header, known or
+ *            not; 300 headers) 431; a WebSocket frame header claiming 2^40 bytes closes its
+ *            connection at once (not after the client sends them)
  *   listen   --listen binds exactly the address asked (the kernel's socket table, /proc/net/tcp and
  *            tcp6): 127.0.0.1:PORT and a bare PORT (the default address) an IPv4 loopback socket
  *            and no IPv6 one; [::1]:PORT an IPv6 loopback socket and no IPv4 one
@@ -1411,6 +1412,43 @@ static void scenario_http(void)
         ASSERT_INT_EQ(st, 414);
         free(a);
     }
+    /* a 5,000-character query: 414 (it was a silent close) */
+    {
+        static char req[6000];
+        int len = snprintf(req, sizeof req, "GET /healthz?q=%05000d HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                           "Connection: close\r\n\r\n", 7);
+        int st = harness_raw(&H, req, (size_t)len, &a);
+        printf("http: GET with a 5,000-character query: %d\n", st);
+        ASSERT_INT_EQ(st, 414);
+        free(a);
+    }
+    /* request headers beyond 8 KiB: 431 (lws closed them unanswered); under it, 200 */
+    {
+        static const char *const shapes[] = {"X-Big", "Cookie", "300", "under"};
+        size_t cap = 120 * 1024;
+        char *req = malloc(cap);
+        ASSERT(req);
+        for (int k = 0; k < 4; k++) {
+            int len = snprintf(req, cap, "GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                               "Connection: close\r\n");
+            if (k < 2) { /* one header of 100 KB: unknown to lws, then one it knows */
+                len += snprintf(req + len, cap - (size_t)len, "%s: ", shapes[k]);
+                memset(req + len, 'a', 100000);
+                len += 100000;
+                len += snprintf(req + len, cap - (size_t)len, "\r\n");
+            } else { /* 300 headers of 40 bytes; 150 of 20 bytes stay under the limit */
+                for (int i = 0; i < (k == 2 ? 300 : 150); i++)
+                    len += snprintf(req + len, cap - (size_t)len, "X-Header-%03d: %0*d\r\n", i,
+                                    k == 2 ? 24 : 4, i);
+            }
+            len += snprintf(req + len, cap - (size_t)len, "\r\n");
+            int st = harness_raw(&H, req, (size_t)len, &a);
+            printf("http: request headers of %d bytes (%s): %d\n", len, shapes[k], st);
+            ASSERT_INT_EQ(st, k < 3 ? 431 : 200);
+            free(a);
+        }
+        free(req);
+    }
     /* a text frame whose header claims 2^40 bytes (masked, as a client's must be), then 16 of
      * them: closed at once (a close frame, 1009), beyond --max-message, not when the rest has
      * come (never, before) */
@@ -1424,7 +1462,7 @@ static void scenario_http(void)
     ASSERT_INT_EQ(harness_get(&H, "/healthz", &a), 200); /* and still serving */
     free(a);
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
-    printf("http: HEAD answered, other methods 405, long URIs 414\n");
+    printf("http: HEAD answered, other methods 405, long URIs and queries 414, large headers 431\n");
 }
 
 /* ------------------------------------------------------------------ listen */
