@@ -469,12 +469,16 @@ int main(int argc, char **argv)
         rss_max = rss_last;
     int load_st = harness_wait(load_pid);
     cJSON *sum = load_summary(loadout);
-    double load_fps_min = -1, load_fps_mean = -1;
+    double load_fps_min = -1, load_fps_mean = -1, lat[4] = {-1, -1, -1, -1};
     int load_connected = -1;
     if (sum) {
+        static const char *const lat_keys[4] = {"e2e_p50_ms", "e2e_p99_ms", "server_p50_ms",
+                                                "server_p99_ms"};
         load_fps_min = cJSON_GetObjectItem(sum, "fps_min")->valuedouble;
         load_fps_mean = cJSON_GetObjectItem(sum, "fps_mean")->valuedouble;
         load_connected = cJSON_GetObjectItem(sum, "connected")->valueint;
+        for (int k = 0; k < 4; k++)
+            lat[k] = cJSON_GetObjectItem(sum, lat_keys[k])->valuedouble;
         cJSON_Delete(sum);
     }
     atomic_store(&snd.stop, 1);
@@ -503,6 +507,8 @@ int main(int argc, char **argv)
     printf("live clients: %d of %d connected at the end, frames/s per client over %s s: slowest "
            "%.2f, mean %.2f (meshsteer-load exit %d)\n",
            load_connected, live, t_s, load_fps_min, load_fps_mean, load_st);
+    printf("live clients' latency over the run: end to end p50 %.2f ms, p99 %.2f ms; the daemon's "
+           "capture -> send p50 %.2f ms, p99 %.2f ms\n", lat[0], lat[1], lat[2], lat[3]);
     long growth = rss_last - rss_warm;
     printf("RSS: %ld kB after the warm-up (%g s), %ld kB at the end (largest after the warm-up "
            "%ld kB): growth %ld kB\n",
