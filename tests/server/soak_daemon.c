@@ -29,9 +29,13 @@
  * reload ended as expected, the noise clients got their replies and were closed only as asked,
  * and the daemon exits cleanly on SIGTERM.
  *
- * Usage: soak_daemon MESHSTEERD MAKE_MODEL MESHSTEER_LOAD SECONDS LIVE_CLIENTS
- * The documented run (meson test --benchmark daemon_soak) is 1800 s with 64 live clients; CI runs
- * 120 s with 16 (tests/server/meson.build). */
+ * Usage: soak_daemon MESHSTEERD MAKE_MODEL MESHSTEER_LOAD SECONDS LIVE_CLIENTS [fifo]
+ * With "fifo" this program, the daemon and meshsteer-load run under SCHED_FIFO priority 10 (they
+ * inherit it; needs CAP_SYS_NICE, otherwise the run says so and goes on with default scheduling),
+ * as bench_daemon's fifo does: on a machine that other work keeps busy, the frame rates are then
+ * the daemon's and not the machine's. None of them spins: together they take a fraction of a core.
+ * The documented run (meson test --benchmark daemon_soak_30min) is 1800 s with 64 live clients;
+ * CI runs 120 s with 16 (tests/server/meson.build). */
 #include "daemon_harness.h"
 #include "model.h"
 #include "test.h"
@@ -45,6 +49,7 @@
 #include <math.h>
 #include <netinet/in.h>
 #include <pthread.h>
+#include <sched.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -297,6 +302,18 @@ static cJSON *load_summary(const char *path)
     return last;
 }
 
+static double load_average(void)
+{
+    double l = -1;
+    FILE *f = fopen("/proc/loadavg", "r");
+    if (f) {
+        if (fscanf(f, "%lf", &l) != 1)
+            l = -1;
+        fclose(f);
+    }
+    return l;
+}
+
 static int daemon_alive(void)
 {
     int st;
@@ -315,9 +332,9 @@ static void kill_children(void)
 
 int main(int argc, char **argv)
 {
-    if (argc != 6) {
+    if ((argc != 6 && argc != 7) || (argc == 7 && strcmp(argv[6], "fifo"))) {
         fprintf(stderr, "usage: soak_daemon MESHSTEERD MAKE_MODEL MESHSTEER_LOAD SECONDS "
-                        "LIVE_CLIENTS\n");
+                        "LIVE_CLIENTS [fifo]\n");
         return 2;
     }
     const char *meshsteerd = argv[1], *load = argv[3];
@@ -343,6 +360,12 @@ int main(int argc, char **argv)
     snprintf(csv, sizeof csv, "%s/trot.csv", H.dir);
     snprintf(loadout, sizeof loadout, "%s/load.out", H.dir);
     harness_copy(good, model);
+    const char *sched = "default (SCHED_OTHER)";
+    if (argc == 7) { /* after make_model: the daemon, the load client and this program inherit it */
+        struct sched_param sp = {.sched_priority = 10};
+        sched = sched_setscheduler(0, SCHED_FIFO, &sp) ? "default (SCHED_FIFO refused)"
+                                                       : "SCHED_FIFO 10 (every process of the run)";
+    }
     char err[MDL_ERR_LEN];
     mdl_markers *mk = NULL;
     ASSERT_OK(mdl_markers_read(csv, NULL, &mk, err), err);
@@ -383,9 +406,11 @@ int main(int argc, char **argv)
 
     printf("soak: %g s, %d live clients (meshsteer-load, int16), %d stalled, %d noise; OSC source "
            "at %d Hz (gone for %d s at %d s and every %d s after); SIGHUP every %d s (corrupt, "
-           "good, ...; every %d s in the warm-up of %g s); %ld CPUs\n\n",
+           "good, ...; every %d s in the warm-up of %g s); %ld CPUs, load average %.2f at start; "
+           "scheduling %s\n\n",
            secs, live, STALLED, NOISE, SOURCE_HZ, VANISH_FOR_S, VANISH_FIRST_S, VANISH_EVERY_S,
-           RELOAD_EVERY_S, WARM_RELOAD_EVERY_S, warm, sysconf(_SC_NPROCESSORS_ONLN));
+           RELOAD_EVERY_S, WARM_RELOAD_EVERY_S, warm, sysconf(_SC_NPROCESSORS_ONLN), load_average(),
+           sched);
     printf("| minute | RSS kB | live frames/s slowest / mean (connected) | noise sent / pongs / "
            "acks / errors | reloads ok / failed | stalled replaced | source gone | errors |\n"
            "|---:|---:|---|---|---|---:|---:|---:|\n");
@@ -509,6 +534,7 @@ int main(int argc, char **argv)
            load_connected, live, t_s, load_fps_min, load_fps_mean, load_st);
     printf("live clients' latency over the run: end to end p50 %.2f ms, p99 %.2f ms; the daemon's "
            "capture -> send p50 %.2f ms, p99 %.2f ms\n", lat[0], lat[1], lat[2], lat[3]);
+    printf("load average at the end: %.2f\n", load_average());
     long growth = rss_last - rss_warm;
     printf("RSS: %ld kB after the warm-up (%g s), %ld kB at the end (largest after the warm-up "
            "%ld kB): growth %ld kB\n",
