@@ -173,13 +173,7 @@ int main(int argc, char **argv)
                           "--max-clients", "10000", NULL};
     harness_start(&H, meshsteerd, args);
 
-    double load1 = 0;
-    FILE *la = fopen("/proc/loadavg", "r");
-    if (la) {
-        if (fscanf(la, "%lf", &load1) != 1)
-            load1 = 0;
-        fclose(la);
-    }
+    double load1 = harness_load_average();
     printf("horse model (8,431 vertices), replay at 60 Hz, %g s per row after 1.5 s warm-up; "
            "%ld CPUs, load average %.2f at start; scheduling %s\n\n",
            secs, sysconf(_SC_NPROCESSORS_ONLN), load1,

@@ -302,6 +302,18 @@ int harness_stalled_client(const harness *h)
     return fd;
 }
 
+double harness_load_average(void)
+{
+    double l = -1;
+    FILE *f = fopen("/proc/loadavg", "r");
+    if (f) {
+        if (fscanf(f, "%lf", &l) != 1)
+            l = -1;
+        fclose(f);
+    }
+    return l;
+}
+
 long harness_rss_kb(const harness *h)
 {
     char path[64];

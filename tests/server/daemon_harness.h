@@ -40,6 +40,8 @@ void harness_copy(const char *from, const char *to);
 /* 1 when the daemon's log contains needle. */
 int harness_log_has(const harness *h, const char *needle);
 long harness_rss_kb(const harness *h);
+/* The machine's 1-minute load average (/proc/loadavg), -1 if unknown. */
+double harness_load_average(void);
 /* A WebSocket client on a raw socket (a small receive buffer) that completes the handshake and
  * then never reads; returns the socket. */
 int harness_stalled_client(const harness *h);

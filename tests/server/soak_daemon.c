@@ -302,18 +302,6 @@ static cJSON *load_summary(const char *path)
     return last;
 }
 
-static double load_average(void)
-{
-    double l = -1;
-    FILE *f = fopen("/proc/loadavg", "r");
-    if (f) {
-        if (fscanf(f, "%lf", &l) != 1)
-            l = -1;
-        fclose(f);
-    }
-    return l;
-}
-
 static int daemon_alive(void)
 {
     int st;
@@ -409,7 +397,7 @@ int main(int argc, char **argv)
            "good, ...; every %d s in the warm-up of %g s); %ld CPUs, load average %.2f at start; "
            "scheduling %s\n\n",
            secs, live, STALLED, NOISE, SOURCE_HZ, VANISH_FOR_S, VANISH_FIRST_S, VANISH_EVERY_S,
-           RELOAD_EVERY_S, WARM_RELOAD_EVERY_S, warm, sysconf(_SC_NPROCESSORS_ONLN), load_average(),
+           RELOAD_EVERY_S, WARM_RELOAD_EVERY_S, warm, sysconf(_SC_NPROCESSORS_ONLN), harness_load_average(),
            sched);
     printf("| minute | RSS kB | live frames/s slowest / mean (connected) | noise sent / pongs / "
            "acks / errors | reloads ok / failed | stalled replaced | source gone | errors |\n"
@@ -534,7 +522,7 @@ int main(int argc, char **argv)
            load_connected, live, t_s, load_fps_min, load_fps_mean, load_st);
     printf("live clients' latency over the run: end to end p50 %.2f ms, p99 %.2f ms; the daemon's "
            "capture -> send p50 %.2f ms, p99 %.2f ms\n", lat[0], lat[1], lat[2], lat[3]);
-    printf("load average at the end: %.2f\n", load_average());
+    printf("load average at the end: %.2f\n", harness_load_average());
     long growth = rss_last - rss_warm;
     printf("RSS: %ld kB after the warm-up (%g s), %ld kB at the end (largest after the warm-up "
            "%ld kB): growth %ld kB\n",
