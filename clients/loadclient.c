@@ -17,9 +17,11 @@
  * tool on a known server), the server's frames parsed as a stream by wsframe.c (payload skipped
  * in bulk, only the first 56 bytes of each message kept), pings answered, close honoured, and one
  * masked text frame sent (the encoding request). One recv of up to 1 MB per readable socket, the
- * receipt time taken once per recv. No allocation after start.
+ * receipt time taken once per recv. No allocation after start. With -i, every INTERVAL seconds of
+ * the measured time also one line: frames/s of the slowest client and the mean over that interval,
+ * and how many are still connected (for long runs, tests/server/soak_daemon.c).
  * Usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16] [-p PORT]
- *                       [-H HOST] [-O ORIGIN] [-j] */
+ *                       [-H HOST] [-O ORIGIN] [-i INTERVAL_S] [-j] */
 #include <errno.h>
 #include <getopt.h>
 #include <fcntl.h>
@@ -51,6 +53,7 @@ typedef struct conn {
     uint64_t t_recv; /* receipt time of the bytes being parsed */
     /* statistics */
     uint64_t first_seq, last_seq, frames, skipped;
+    uint64_t frames_at_interval; /* frames at the start of the current -i interval */
 } conn;
 
 typedef struct run {
@@ -236,24 +239,47 @@ static double quant(const uint32_t *v, size_t n, double q)
     return (double)v[k < n ? k : n - 1] * 1e-3;
 }
 
+/* -i: one line for the interval of secs seconds that just ended; starts the next. */
+static void report_interval(conn *c, int n, int k, double secs, int json)
+{
+    double fmin = -1, sum = 0;
+    int up = 0;
+    for (int i = 0; i < n; i++) {
+        double f = (double)(c[i].frames - c[i].frames_at_interval) / secs;
+        c[i].frames_at_interval = c[i].frames;
+        fmin = fmin < 0 || f < fmin ? f : fmin;
+        sum += f;
+        up += c[i].state == C_OPEN;
+    }
+    if (json)
+        printf("{\"interval\":%d,\"seconds\":%g,\"fps_min\":%.2f,\"fps_mean\":%.2f,"
+               "\"connected\":%d}\n", k, secs, fmin, sum / n, up);
+    else
+        printf("interval %d (%g s): %.1f frames/s per client (slowest %.1f), %d of %d connected\n",
+               k, secs, sum / n, fmin, up, n);
+    fflush(stdout);
+}
+
 int main(int argc, char **argv)
 {
     int n = 1, port = 8080, opt, json = 0;
-    double secs = 10, warm = 1;
+    double secs = 10, warm = 1, interval = 0;
     const char *host = "127.0.0.1", *origin = NULL;
     R.encoding = "float32";
     static const struct option longopts[] = {{"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
-    while ((opt = getopt_long(argc, argv, "n:t:w:e:p:H:O:jh", longopts, NULL)) != -1) {
+    while ((opt = getopt_long(argc, argv, "n:t:w:e:p:H:O:i:jh", longopts, NULL)) != -1) {
         switch (opt) {
         case 'h':
             printf("usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16]\n"
-                   "                      [-p PORT] [-H HOST] [-O ORIGIN] [-j]\n\n"
+                   "                      [-p PORT] [-H HOST] [-O ORIGIN] [-i INTERVAL_S] [-j]\n\n"
                    "Opens CLIENTS WebSocket connections to meshsteerd (default 1, to 127.0.0.1:8080),\n"
                    "subscribes each to the stream in the given encoding (default float32), discards\n"
                    "the first WARMUP_S seconds (default 1), then counts frames for SECONDS (default\n"
                    "10) and prints frames per second and the capture-to-receive latency (median,\n"
-                   "p99, max). -O sets the Origin header (default http://HOST:PORT); -j prints one\n"
-                   "JSON object. Exit status 0 when every client connected and was subscribed, 1 if\n"
+                   "p99, max). -O sets the Origin header (default http://HOST:PORT); -i prints a\n"
+                   "line every INTERVAL_S seconds of the measured time (frames/s of the slowest client\n"
+                   "and the mean over it, clients still connected); -j prints JSON (one object, and one\n"
+                   "per -i line). Exit status 0 when every client connected and was subscribed, 1 if\n"
                    "not, 2 on bad usage.\n");
             return 0;
         case 'n': n = atoi(optarg); break;
@@ -263,15 +289,18 @@ int main(int argc, char **argv)
         case 'p': port = atoi(optarg); break;
         case 'H': host = optarg; break;
         case 'O': origin = optarg; break;
+        case 'i': interval = atof(optarg); break;
         case 'j': json = 1; break;
         default:
             fprintf(stderr, "usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] "
-                            "[-e float32|int16] [-p PORT] [-H HOST] [-O ORIGIN] [-j]\n");
+                            "[-e float32|int16] [-p PORT] [-H HOST] [-O ORIGIN] [-i INTERVAL_S] "
+                            "[-j]\n");
             return 2;
         }
     }
-    if (n < 1 || n > 10000 || !(secs > 0) || !(warm >= 0) || port < 1 || port > 65535) {
-        fprintf(stderr, "meshsteer-load: bad -n, -t, -w or -p\n");
+    if (n < 1 || n > 10000 || !(secs > 0) || !(warm >= 0) || port < 1 || port > 65535 ||
+        !(interval >= 0)) {
+        fprintf(stderr, "meshsteer-load: bad -n, -t, -w, -p or -i\n");
         return 2;
     }
     if (strcmp(R.encoding, "float32") && strcmp(R.encoding, "int16")) {
@@ -323,8 +352,15 @@ int main(int argc, char **argv)
     uint64_t t0 = now_us();
     R.t_measure = t0 + (uint64_t)(warm * 1e6);
     uint64_t end = R.t_measure + (uint64_t)(secs * 1e6);
+    uint64_t step = (uint64_t)(interval * 1e6), next_report = step ? R.t_measure + step : end + 1;
+    int reports = 0;
     for (uint64_t now = t0; now < end; now = now_us()) {
-        int k = epoll_wait(ep, ev, n, (int)((end - now) / 1000) + 1);
+        if (now >= next_report) {
+            report_interval(c, n, ++reports, interval, json);
+            next_report += step;
+        }
+        uint64_t until = next_report < end ? next_report : end;
+        int k = epoll_wait(ep, ev, n, now < until ? (int)((until - now) / 1000) + 1 : 0);
         for (int i = 0; i < k; i++) {
             conn *cc = ev[i].data.ptr;
             if (cc->state == C_CLOSED)
@@ -341,6 +377,8 @@ int main(int argc, char **argv)
                 epoll_ctl(ep, EPOLL_CTL_DEL, cc->fd, NULL);
         }
     }
+    if (step && next_report <= end) /* the interval that ends with the run */
+        report_interval(c, n, ++reports, interval, json);
 
     int up = 0;
     uint64_t frames = 0, sent = 0, skipped = 0;

@@ -12,6 +12,10 @@
 
 #define SRV_WS_PROTOCOL "meshsteer.v1" /* Sec-WebSocket-Protocol; optional for clients */
 #define SRV_REPLY_QUEUE 8
+/* HTTP request headers: lws parses into a buffer of SRV_HTTP_HEADER_BUFFER bytes (a request
+ * larger than that is closed by lws unanswered); http.c answers 431 above SRV_HTTP_MAX_HEADERS. */
+#define SRV_HTTP_HEADER_BUFFER (128 * 1024)
+#define SRV_HTTP_MAX_HEADERS 8192
 
 typedef struct srv_session srv_session;
 

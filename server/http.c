@@ -4,7 +4,14 @@
  * rather than by an lws file mount because lws 4.1.6's file mount answers the second request on a
  * kept-alive connection with the first one's headers and no body. Paths are confined to web_root
  * (realpath). GET and HEAD (the same headers, no body); with --token, /healthz and /metrics
- * (which name the model path and source spec) need the token as /stream does. */
+ * (which name the model path and source spec) need the token as /stream does.
+ *
+ * Request size (RFC 6585 Sec. 5, 431): lws 4.1 tells the callback neither how large the request
+ * was nor its unknown headers, so the size is what lws has read from the socket for this request:
+ * the connection's bytes received (TCP_INFO) less those still queued (SIOCINQ), less what earlier
+ * requests on the connection took. Exact for a client that waits for each answer (browsers,
+ * WebSocket clients before the 101); a client pipelining more than the limit ahead is counted
+ * with the earlier request. */
 #include "daemon.h"
 #include "log.h"
 
@@ -13,17 +20,41 @@
 #include <string.h>
 
 #include <limits.h>
+#include <linux/sockios.h>
+#include <linux/tcp.h>
 #include <stdio.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 
 #define HTTP_CHUNK 65536
 #define HTTP_MAX_FILE (16u << 20)
+
+#define HTTP_MAX_URI 255       /* no path of ours is longer */
+#define HTTP_MAX_QUERY 1024    /* ?token=... is the only query we read (256 bytes at most) */
+#define HTTP_STATUS_HEADERS_TOO_LARGE 431 /* RFC 6585; not in lws 4.1's enum */
 
 typedef struct http_req {
     char *body; /* LWS_PRE headroom before it */
     size_t len, sent;
     int head;   /* HEAD: headers only */
 } http_req;
+
+/* Bytes lws has read from wsi's connection so far (0 when the kernel cannot say). */
+static uint64_t bytes_consumed(struct lws *wsi)
+{
+    int fd = lws_get_socket_fd(wsi), queued = 0;
+    struct tcp_info ti;
+    socklen_t n = sizeof ti;
+    memset(&ti, 0, sizeof ti);
+    /* TCP_INFO first: bytes arriving between the two calls make the count smaller, not larger */
+    if (fd < 0 || getsockopt(fd, IPPROTO_TCP, TCP_INFO, &ti, &n) ||
+        n < offsetof(struct tcp_info, tcpi_bytes_received) + sizeof ti.tcpi_bytes_received ||
+        ioctl(fd, SIOCINQ, &queued))
+        return 0;
+    return ti.tcpi_bytes_received > (uint64_t)queued ? ti.tcpi_bytes_received - (uint64_t)queued
+                                                     : 0;
+}
 
 static char *healthz(srv_daemon *d)
 {
@@ -150,8 +181,18 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
     (void)in;
     switch (reason) {
     case LWS_CALLBACK_HTTP: {
+        /* what lws had read at the connection's previous request: kept in the wsi, which lives
+         * as long as the connection (the per-request data does not) */
+        uintptr_t before = (uintptr_t)lws_get_opaque_user_data(wsi);
+        uintptr_t now = (uintptr_t)bytes_consumed(wsi); /* modulo 2^32 on 32-bit: differences hold */
         memset(r, 0, sizeof *r);
-        char uri[256];
+        lws_set_opaque_user_data(wsi, (void *)now);
+        if (now - before > SRV_HTTP_MAX_HEADERS && now - before < ((uintptr_t)1 << 31)) {
+            static const char msg[] = "request headers too large\n";
+            return respond(wsi, r, HTTP_STATUS_HEADERS_TOO_LARGE, "text/plain", msg,
+                           sizeof msg - 1);
+        }
+        char uri[HTTP_MAX_URI + 1];
         int ulen = lws_hdr_total_length(wsi, WSI_TOKEN_GET_URI);
         if (ulen <= 0) {
             ulen = lws_hdr_total_length(wsi, WSI_TOKEN_HEAD_URI);
@@ -162,7 +203,8 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
                                sizeof msg - 1);
             }
         }
-        if (ulen >= (int)sizeof uri) { /* no path of ours is that long */
+        if (ulen > HTTP_MAX_URI ||
+            lws_hdr_total_length(wsi, WSI_TOKEN_HTTP_URI_ARGS) > HTTP_MAX_QUERY) {
             static const char msg[] = "URI too long\n";
             return respond(wsi, r, HTTP_STATUS_REQ_URI_TOO_LONG, "text/plain", msg,
                            sizeof msg - 1);

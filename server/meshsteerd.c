@@ -359,6 +359,10 @@ int main(int argc, char **argv)
     info.user = &d;
     info.timeout_secs = 10;
     info.pt_serv_buf_size = 64 * 1024;
+    /* lws closes a request whose headers overflow its buffer without a word; a larger buffer lets
+     * http.c answer 431 up to it (SRV_HTTP_HEADER_BUFFER, daemon.h) */
+    info.max_http_header_data = 0;
+    info.max_http_header_data2 = SRV_HTTP_HEADER_BUFFER;
     d.ctx = lws_create_context(&info);
     if (!d.ctx) {
         srv_log(SRV_LOG_ERROR, "cannot listen on %s%s%s:%d", listen_v6 ? "[" : "", listen_addr,

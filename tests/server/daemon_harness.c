@@ -65,7 +65,7 @@ void harness_dir(harness *h)
     ASSERT(mkdtemp(h->dir));
 }
 
-int harness_run(const char *const *argv, const char *out_path)
+pid_t harness_spawn(const char *const *argv, const char *out_path)
 {
     pid_t pid = fork();
     ASSERT(pid >= 0);
@@ -76,9 +76,19 @@ int harness_run(const char *const *argv, const char *out_path)
         execv(argv[0], (char *const *)argv);
         _exit(127);
     }
+    return pid;
+}
+
+int harness_wait(pid_t pid)
+{
     int st;
     ASSERT(waitpid(pid, &st, 0) == pid);
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+int harness_run(const char *const *argv, const char *out_path)
+{
+    return harness_wait(harness_spawn(argv, out_path));
 }
 
 void harness_fixtures(harness *h, const char *make_model)
@@ -275,6 +285,21 @@ int harness_stop(harness *h, int sig, int timeout_ms)
     kill(h->pid, SIGKILL);
     waitpid(h->pid, NULL, 0);
     return -1;
+}
+
+int harness_stalled_client(const harness *h)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    int small = 4096;
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)h->port)};
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT(connect(fd, (struct sockaddr *)&sa, sizeof sa) == 0);
+    const char *req = "GET /stream HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\n"
+                      "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                      "Sec-WebSocket-Version: 13\r\n\r\n";
+    ASSERT(write(fd, req, strlen(req)) == (ssize_t)strlen(req));
+    return fd;
 }
 
 long harness_rss_kb(const harness *h)

@@ -40,8 +40,14 @@ void harness_copy(const char *from, const char *to);
 /* 1 when the daemon's log contains needle. */
 int harness_log_has(const harness *h, const char *needle);
 long harness_rss_kb(const harness *h);
+/* A WebSocket client on a raw socket (a small receive buffer) that completes the handshake and
+ * then never reads; returns the socket. */
+int harness_stalled_client(const harness *h);
 /* Runs argv (NULL-terminated) to completion with stdout and stderr into out_path; returns the exit
  * status (128 + signal when killed). */
 int harness_run(const char *const *argv, const char *out_path);
+/* The same without waiting: returns the child's pid, for harness_wait. */
+pid_t harness_spawn(const char *const *argv, const char *out_path);
+int harness_wait(pid_t pid);
 
 #endif

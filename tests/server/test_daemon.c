@@ -19,8 +19,10 @@
  *            keeps the map over a SIGHUP reload; a map leaving one marker unbound (bound false, live
  *            the label looked for); the same map from a config file's `labels =`
  *   http     HTTP answers: HEAD (the GET's headers, no body), another method 405 with Allow, an
- *            overlong URI 414; a WebSocket frame header claiming 2^40 bytes closes its connection
- *            at once (not after the client sends them)
+ *            overlong URI or query 414, request headers over 8 KiB (one 100 KB header, known or
+ *            not; 300 headers) 431, but not 20 requests of 1 KB on one kept-alive connection;
+ *            a WebSocket frame header claiming 2^40 bytes closes its
+ *            connection at once (not after the client sends them)
  *   listen   --listen binds exactly the address asked (the kernel's socket table, /proc/net/tcp and
  *            tcp6): 127.0.0.1:PORT and a bare PORT (the default address) an IPv4 loopback socket
  *            and no IPv6 one; [::1]:PORT an IPv6 loopback socket and no IPv4 one
@@ -512,22 +514,6 @@ static void scenario_kinds(void)
 
 /* ------------------------------------------------------------------ slow */
 
-/* A WebSocket client on a raw socket that completes the handshake and then never reads. */
-static int stalled_client(int port)
-{
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    int small = 4096;
-    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
-    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
-    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ASSERT(connect(fd, (struct sockaddr *)&sa, sizeof sa) == 0);
-    const char *req = "GET /stream HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\n"
-                      "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
-                      "Sec-WebSocket-Version: 13\r\n\r\n";
-    ASSERT(write(fd, req, strlen(req)) == (ssize_t)strlen(req));
-    return fd;
-}
-
 static void scenario_slow(void)
 {
     start_default("--encoding", "float32");
@@ -550,7 +536,7 @@ static void scenario_slow(void)
     }
     int fds[4];
     for (int i = 0; i < 4; i++)
-        fds[i] = stalled_client(H.port);
+        fds[i] = harness_stalled_client(&H);
     run_until(ctx, A, A->total_frames + 30, 0, 5000); /* the stalled sockets fill up */
     long rss0 = harness_rss_kb(&H);
     uint64_t f0 = A->total_frames;
@@ -742,15 +728,13 @@ static void scenario_origin(void)
 
 /* ------------------------------------------------------------------ idle */
 
-static int stalled_client(int port);
-
 static void scenario_idle(void)
 {
     start_default("--idle-timeout", "2");
     struct lws_context *ctx = wsc_context();
     wsc *A = wsc_connect(ctx, H.port, NULL, 0);
     run_until(ctx, A, 10, 0, 15000);
-    int fd = stalled_client(H.port);
+    int fd = harness_stalled_client(&H);
     uint64_t t0 = wsc_now_us();
     /* the stalled socket fills within a few frames; 2 s later the daemon closes it */
     while (harness_metric(&H, "meshsteer_closed_idle_total") < 1 && wsc_now_us() - t0 < 10000000)
@@ -1430,6 +1414,80 @@ static void scenario_http(void)
         ASSERT_INT_EQ(st, 414);
         free(a);
     }
+    /* a 5,000-character query: 414 (it was a silent close) */
+    {
+        static char req[6000];
+        int len = snprintf(req, sizeof req, "GET /healthz?q=%05000d HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                           "Connection: close\r\n\r\n", 7);
+        int st = harness_raw(&H, req, (size_t)len, &a);
+        printf("http: GET with a 5,000-character query: %d\n", st);
+        ASSERT_INT_EQ(st, 414);
+        free(a);
+    }
+    /* request headers beyond 8 KiB: 431 (lws closed them unanswered); under it, 200 */
+    {
+        static const char *const shapes[] = {"X-Big", "Cookie", "300", "under"};
+        size_t cap = 120 * 1024;
+        char *req = malloc(cap);
+        ASSERT(req);
+        for (int k = 0; k < 4; k++) {
+            int len = snprintf(req, cap, "GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                               "Connection: close\r\n");
+            if (k < 2) { /* one header of 100 KB: unknown to lws, then one it knows */
+                len += snprintf(req + len, cap - (size_t)len, "%s: ", shapes[k]);
+                memset(req + len, 'a', 100000);
+                len += 100000;
+                len += snprintf(req + len, cap - (size_t)len, "\r\n");
+            } else { /* 300 headers of 40 bytes; 150 of 20 bytes stay under the limit */
+                for (int i = 0; i < (k == 2 ? 300 : 150); i++)
+                    len += snprintf(req + len, cap - (size_t)len, "X-Header-%03d: %0*d\r\n", i,
+                                    k == 2 ? 24 : 4, i);
+            }
+            len += snprintf(req + len, cap - (size_t)len, "\r\n");
+            int st = harness_raw(&H, req, (size_t)len, &a);
+            printf("http: request headers of %d bytes (%s): %d\n", len, shapes[k], st);
+            ASSERT_INT_EQ(st, k < 3 ? 431 : 200);
+            free(a);
+        }
+        free(req);
+    }
+    /* one kept-alive connection, 20 requests of 1 KB headers one after the other: each is its own
+     * size (20 KB in all is no reason for a 431) */
+    {
+        int fd = socket(AF_INET, SOCK_STREAM, 0);
+        struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)H.port)};
+        sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        struct timeval tv = {5, 0};
+        setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+        ASSERT(connect(fd, (struct sockaddr *)&sa, sizeof sa) == 0);
+        char req[1200], resp[8192];
+        for (int i = 0; i < 20; i++) {
+            int len = snprintf(req, sizeof req, "GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                               "X-Pad: %01000d\r\n\r\n", i);
+            ASSERT(write(fd, req, (size_t)len) == len);
+            size_t got = 0; /* the headers, then Content-Length bytes of body */
+            char *sep = NULL;
+            while (!sep && got < sizeof resp - 1) {
+                ssize_t r = read(fd, resp + got, sizeof resp - 1 - got);
+                ASSERT(r > 0);
+                got += (size_t)r;
+                resp[got] = '\0';
+                sep = strstr(resp, "\r\n\r\n");
+            }
+            ASSERT(sep && !strncmp(resp, "HTTP/1.1 200", 12));
+            const char *cl = strstr(resp, "content-length: ");
+            ASSERT(cl);
+            size_t want = (size_t)(sep + 4 - resp) + (size_t)atoi(cl + 16);
+            while (got < want) {
+                ssize_t r = read(fd, resp + got, sizeof resp - 1 - got);
+                ASSERT(r > 0);
+                got += (size_t)r;
+            }
+            ASSERT(got == want);
+        }
+        close(fd);
+        printf("http: 20 requests of 1 KB headers on one connection: 200 each\n");
+    }
     /* a text frame whose header claims 2^40 bytes (masked, as a client's must be), then 16 of
      * them: closed at once (a close frame, 1009), beyond --max-message, not when the rest has
      * come (never, before) */
@@ -1443,7 +1501,7 @@ static void scenario_http(void)
     ASSERT_INT_EQ(harness_get(&H, "/healthz", &a), 200); /* and still serving */
     free(a);
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
-    printf("http: HEAD answered, other methods 405, long URIs 414\n");
+    printf("http: HEAD answered, other methods 405, long URIs and queries 414, large headers 431\n");
 }
 
 /* ------------------------------------------------------------------ listen */
