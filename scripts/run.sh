@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 PACKAGES=(build-essential meson ninja-build pkg-config clang libclang-rt-14-dev
           libopenblas-dev liblapacke-dev libcjson-dev libpng-dev
           libwebsockets-dev libsystemd-dev libopenni2-dev libusb-1.0-0-dev libsuitesparse-dev
-          liblo-dev liblo-tools chromium valgrind assimp-utils)
+          liblo-dev liblo-tools chromium valgrind assimp-utils libnats-dev nats-server)
 
 setup_packages() {
     local missing=()
