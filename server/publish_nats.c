@@ -31,6 +31,7 @@ struct srv_publisher {
     pthread_cond_t cond;
     int kick, stop;
     atomic_int announce; /* (re)connected: publish hello and topology again */
+    atomic_int closing;  /* srv_publisher_destroy: the disconnection is ours */
 
     /* the publisher thread's own */
     uint32_t announced_gen; /* generation whose hello and topology went out (0: none) */
@@ -55,7 +56,7 @@ static void on_disconnected(natsConnection *nc, void *closure)
 {
     srv_publisher *p = closure;
     (void)nc;
-    if (atomic_exchange(&p->m->nats_connected, 0))
+    if (atomic_exchange(&p->m->nats_connected, 0) && !atomic_load(&p->closing))
         srv_log(SRV_LOG_WARN, "nats: disconnected; frames are dropped until libnats reconnects");
 }
 
@@ -377,6 +378,7 @@ void srv_publisher_destroy(srv_publisher *p)
         pthread_mutex_unlock(&p->lock);
         pthread_join(p->thread, NULL);
     }
+    atomic_store(&p->closing, 1);
     natsSubscription_Destroy(p->get_hello);
     natsSubscription_Destroy(p->get_topology);
     if (p->nc) {
