@@ -1,5 +1,6 @@
 /* publish_nats.c - the daemon's stream published to NATS subjects (see publish_nats.h). */
 #include "publish_nats.h"
+#include "control.h"
 #include "daemon_config.h"
 #include "encode.h"
 #include "log.h"
@@ -20,9 +21,9 @@ struct srv_publisher {
     srv_metrics *m;
     natsOptions *opts;
     natsConnection *nc;
-    natsSubscription *get_hello, *get_topology;
+    natsSubscription *get_hello, *get_topology, *get_ping;
     char subj_hello[SUBJECT_LEN], subj_topology[SUBJECT_LEN];
-    char subj_get_hello[SUBJECT_LEN], subj_get_topology[SUBJECT_LEN];
+    char subj_get_hello[SUBJECT_LEN], subj_get_topology[SUBJECT_LEN], subj_get_ping[SUBJECT_LEN];
     char subj_frames[SRV_ENC_COUNT][SUBJECT_LEN];
 
     pthread_t thread;
@@ -73,26 +74,32 @@ static void on_error(natsConnection *nc, natsSubscription *sub, natsStatus s, vo
     srv_log(SRV_LOG_WARN, "nats: %s", natsStatus_GetText(s));
 }
 
-/* P.get.hello / P.get.topology: the current generation's message to the request's reply subject
- * (libnats' delivery thread). */
+/* P.get.hello / P.get.topology: the current generation's message; P.get.ping: the daemon's clock
+ * as /stream's pong gives it (the viewer's clock offset). To the request's reply subject, from
+ * libnats' delivery thread. */
 static void on_get(natsConnection *nc, natsSubscription *sub, natsMsg *msg, void *closure)
 {
     srv_publisher *p = closure;
     (void)sub;
-    const char *reply = natsMsg_GetReply(msg);
+    const char *reply = natsMsg_GetReply(msg), *subject = natsMsg_GetSubject(msg);
     if (reply && *reply) {
-        srv_gen *g = srv_pipeline_current(p->pipe);
-        int hello = !strcmp(natsMsg_GetSubject(msg), p->subj_get_hello);
-        const unsigned char *data = hello ? g->hello : g->topo;
-        size_t len = hello ? g->hello_len : g->topo_len;
-        natsStatus s = natsConnection_Publish(nc, reply, data, (int)len);
-        srv_gen_unref(g);
+        natsStatus s;
+        if (!strcmp(subject, p->subj_get_ping)) {
+            char pong[SRV_REPLY_LEN];
+            size_t n = srv_reply_pong(pong, NULL, srv_now_us());
+            s = natsConnection_Publish(nc, reply, pong, (int)n);
+        } else {
+            srv_gen *g = srv_pipeline_current(p->pipe);
+            int hello = !strcmp(subject, p->subj_get_hello);
+            s = natsConnection_Publish(nc, reply, hello ? g->hello : g->topo,
+                                       (int)(hello ? g->hello_len : g->topo_len));
+            srv_gen_unref(g);
+        }
         if (s == NATS_OK) {
             srv_metrics_count(&p->m->nats_requests, 1);
         } else {
             srv_metrics_count(&p->m->nats_drops[SRV_NATS_DROP_ERROR], 1);
-            srv_log(SRV_LOG_WARN, "nats: cannot answer %s: %s", natsMsg_GetSubject(msg),
-                    natsStatus_GetText(s));
+            srv_log(SRV_LOG_WARN, "nats: cannot answer %s: %s", subject, natsStatus_GetText(s));
         }
     }
     natsMsg_Destroy(msg);
@@ -318,6 +325,7 @@ int srv_publisher_create(const char *urls, const char *prefix, srv_pipeline *pip
     snprintf(p->subj_topology, SUBJECT_LEN, "%s.topology", prefix);
     snprintf(p->subj_get_hello, SUBJECT_LEN, "%s.get.hello", prefix);
     snprintf(p->subj_get_topology, SUBJECT_LEN, "%s.get.topology", prefix);
+    snprintf(p->subj_get_ping, SUBJECT_LEN, "%s.get.ping", prefix);
     for (int e = 0; e < SRV_ENC_COUNT; e++)
         snprintf(p->subj_frames[e], SUBJECT_LEN, "%s.frames.%s", prefix, srv_encoding_name(e));
 
@@ -349,6 +357,8 @@ int srv_publisher_create(const char *urls, const char *prefix, srv_pipeline *pip
     s = natsConnection_Subscribe(&p->get_hello, p->nc, p->subj_get_hello, on_get, p);
     if (s == NATS_OK)
         s = natsConnection_Subscribe(&p->get_topology, p->nc, p->subj_get_topology, on_get, p);
+    if (s == NATS_OK)
+        s = natsConnection_Subscribe(&p->get_ping, p->nc, p->subj_get_ping, on_get, p);
     if (s != NATS_OK) {
         r = srv_err(err, -EIO, "nats: subscribe to %s.get.*: %s", prefix, natsStatus_GetText(s));
         goto fail;
@@ -381,6 +391,7 @@ void srv_publisher_destroy(srv_publisher *p)
     atomic_store(&p->closing, 1);
     natsSubscription_Destroy(p->get_hello);
     natsSubscription_Destroy(p->get_topology);
+    natsSubscription_Destroy(p->get_ping);
     if (p->nc) {
         natsConnection_Close(p->nc);
         natsConnection_Destroy(p->nc);

@@ -8,6 +8,7 @@
  *                      plain core-NATS publishes: latest wins, nothing is stored or queued
  *   P.get.hello        request-reply: answers with the current hello (late joiners)
  *   P.get.topology     request-reply: answers with the current topology
+ *   P.get.ping         request-reply: answers {"type":"pong","server_us":T}, the daemon's clock
  *
  * Threads: a publisher thread of its own. srv_publisher_notify (called from the synthesis thread
  * through the daemon's wake callback) only signals it; the thread takes the pipeline's newest
