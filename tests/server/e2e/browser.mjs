@@ -1,0 +1,68 @@
+// browser.mjs - what the browser tests share: Debian's chromium under playwright-core (headless,
+// software WebGL, a fresh profile), exiting 77 (skip) when either is missing; a check() that
+// prints ok/FAIL lines and remembers a failure; and how much of the viewer's canvas is drawn.
+import { existsSync, mkdtempSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { createRequire } from 'node:module';
+
+export async function launch() {
+  const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
+  if (!existsSync(chromium)) {
+    console.error(`skip: ${chromium} not installed`);
+    process.exit(77);
+  }
+  const require = createRequire(process.env.MESHSTEER_WEB_DIR + '/package.json');
+  let pw;
+  try {
+    pw = require('playwright-core');
+  } catch (e) {
+    console.error('skip: playwright-core not installed (npm ci in clients/web)');
+    process.exit(77);
+  }
+  const profile = mkdtempSync(join(tmpdir(), 'meshsteer-chromium-'));
+  // a fresh profile directory (playwright passes it to chromium as --user-data-dir)
+  const browser = await pw.chromium.launchPersistentContext(profile, {
+    executablePath: chromium,
+    headless: true,
+    viewport: { width: 800, height: 600 },
+    bypassCSP: true, // playwright's waitForFunction evaluates strings; the page itself runs under the CSP
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
+           '--disable-component-update', '--disable-sync', '--no-first-run', '--disable-quic',
+           // WebGL without a GPU: SwiftShader, which recent Chromium enables only on request
+           '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+  });
+  return {
+    browser,
+    async close() {
+      await browser.close();
+      rmSync(profile, { recursive: true, force: true });
+    },
+  };
+}
+
+export const result = { failed: false };
+export function check(cond, what) {
+  console.log(`${cond ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!cond) result.failed = true;
+}
+
+// The share of the canvas's pixels that differ from its corner (background) and how many shades.
+export function canvasCoverage(page) {
+  return page.evaluate(() => {
+    const src = document.querySelector('#view canvas');
+    const c = document.createElement('canvas');
+    c.width = 200; c.height = 150;
+    const g = c.getContext('2d');
+    g.drawImage(src, 0, 0, 200, 150);
+    const d = g.getImageData(0, 0, 200, 150).data;
+    const bg = [d[0], d[1], d[2]];
+    let differ = 0;
+    const colours = new Set();
+    for (let i = 0; i < d.length; i += 4) {
+      if (Math.abs(d[i] - bg[0]) + Math.abs(d[i + 1] - bg[1]) + Math.abs(d[i + 2] - bg[2]) > 30) differ++;
+      colours.add((d[i] >> 3) << 10 | (d[i + 1] >> 3) << 5 | (d[i + 2] >> 3));
+    }
+    return { differ: differ / (d.length / 4), colours: colours.size };
+  });
+}

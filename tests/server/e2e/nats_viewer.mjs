@@ -1,0 +1,71 @@
+// nats_viewer.mjs - the viewer reading the stream from a NATS cluster instead of the daemon: the
+// page the daemon serves, opened with ?nats=ws://NODE2 (a node the daemon does not publish to; its
+// WebSocket listener), must get the hello and topology as a late joiner, render frames, measure its
+// latency through PREFIX.get.ping, switch encoding by switching subscription, and offer no source
+// controls (they do not travel over NATS). Then the node it reads from is killed and restarted
+// (MESHSTEER_NATS_RESTART_CMD): the viewer must reconnect by itself and render again.
+// Usage: node nats_viewer.mjs URL SCREENSHOT.png       (exit 77 = skip)
+import { launch, check, result, canvasCoverage } from './browser.mjs';
+
+const [url, shot] = process.argv.slice(2);
+const { browser, close } = await launch();
+const logs = [];
+try {
+  const page = browser.pages()[0] || await browser.newPage();
+  page.on('console', m => logs.push(`${m.type()}: ${m.text()}`));
+  page.on('pageerror', e => logs.push(`pageerror: ${e}`));
+  // the daemon's own /stream must not be used: count WebSockets by their URL
+  const sockets = [];
+  page.on('websocket', ws => sockets.push(ws.url()));
+  await page.goto(url, { waitUntil: 'load' });
+  await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30, null,
+                             { timeout: 30000 });
+  await page.waitForTimeout(3000);
+  const s = await page.evaluate(() => ({ ...window.meshsteer }));
+  console.log(JSON.stringify(s));
+  check(s.transport === 'nats' && s.connected, `connected over ${s.transport}`);
+  check(sockets.length >= 1 && sockets.every(u => !u.includes('/stream')),
+        `WebSockets opened: ${sockets.join(', ')} (none to the daemon's /stream)`);
+  check(s.hellos >= 1 && s.topologies >= 1, `hello ${s.hellos}, topology ${s.topologies}`);
+  check(s.nv > 1000 && s.nf > 1000, `mesh of ${s.nv} vertices, ${s.nf} faces`);
+  check(s.frames >= 60, `${s.frames} frames received`);
+  check(s.rendered >= 30 && s.rendered <= s.frames, `${s.rendered} frames rendered`);
+  check(s.fps > 5, `fps ${s.fps.toFixed(1)} (source 30)`);
+  check(s.latencyMs > 0 && s.latencyMs < 5000, `latency ${s.latencyMs.toFixed(1)} ms (clock by PREFIX.get.ping)`);
+  check(s.errors === 0, `no errors ${s.lastError}`);
+  check(JSON.stringify(s.controls) === '[]', `no source controls over NATS: ${JSON.stringify(s.controls)}`);
+  const px = await canvasCoverage(page);
+  check(px.differ > 0.02 && px.colours > 20,
+        `canvas not blank: ${(100 * px.differ).toFixed(1)}% of pixels are not background, ${px.colours} shades`);
+  await page.screenshot({ path: shot });
+  console.log(`screenshot: ${shot}`);
+
+  // int16: another subscription; the frames that come are int16 (byte 4 of the frame = 1)
+  await page.click('#c-int16');
+  const f0 = await page.evaluate(() => window.meshsteer.frames);
+  await page.waitForFunction(n => window.meshsteer.frames > n + 30, f0, { timeout: 15000 });
+  const e = await page.evaluate(() => ({ enc: window.meshsteer.encoding, errors: window.meshsteer.errors }));
+  check(e.enc === 'int16' && e.errors === 0, `int16 frames over NATS (${e.errors} errors)`);
+
+  if (process.env.MESHSTEER_NATS_RESTART_CMD) {
+    const { execSync } = await import('node:child_process');
+    const before = await page.evaluate(() => window.meshsteer.connects);
+    execSync(process.env.MESHSTEER_NATS_RESTART_CMD);
+    await page.waitForFunction(n => window.meshsteer.connects > n && window.meshsteer.connected,
+                               before, { timeout: 30000 });
+    const r = await page.evaluate(() => window.meshsteer.rendered);
+    await page.waitForFunction(n => window.meshsteer.rendered > n + 10, r, { timeout: 15000 });
+    check(true, 'reconnected by itself after its NATS node restarted, and renders again');
+  }
+  if (result.failed) console.log(logs.join('\n'));
+} catch (e) {
+  console.error(`FAIL ${e}`);
+  console.error(logs.join('\n'));
+  try {
+    console.error(JSON.stringify(await browser.pages()[0].evaluate(() => window.meshsteer)));
+  } catch (e2) { /* the page is gone */ }
+  result.failed = true;
+} finally {
+  await close();
+}
+process.exit(result.failed ? 1 : 0);
