@@ -143,14 +143,14 @@ static int holds_60(const row *r)
     return num(r->j, "connected") == r->clients && num(r->j, "fps_min") >= 0.95 * 60;
 }
 
-/* The largest subscriber count (from `from`, 64 held) at which every one gets >= 57 frames/s. */
-static int search_nats(const char *load, const char *urls, const char *enc, double secs,
-                       int max_tried)
+/* The largest client count (64 held) at which every client gets >= 57 frames/s, trying steps[]
+ * upwards to max_tried; over NATS when nats is set. */
+static int search_60(const char *load, const char *nats, const char *enc, const int *steps,
+                     size_t nsteps, double secs, int max_tried)
 {
-    static const int steps[] = {96, 128, 192, 256, 320, 384, 512, 640, 768, 1024};
     int best = 64;
-    for (size_t k = 0; k < sizeof steps / sizeof steps[0] && steps[k] <= max_tried; k++) {
-        row r = {steps[k], enc, urls, NULL, 0, 0, 0};
+    for (size_t k = 0; k < nsteps && steps[k] <= max_tried; k++) {
+        row r = {steps[k], enc, nats, NULL, 0, 0, 0};
         run_row(load, &r, secs);
         print_row(&r);
         int ok = holds_60(&r);
@@ -161,6 +161,9 @@ static int search_nats(const char *load, const char *urls, const char *enc, doub
     }
     return best;
 }
+
+static const int nats_steps[] = {96, 128, 192, 256, 320, 384, 512, 640, 768, 1024};
+#define NSTEPS(a) (sizeof(a) / sizeof(a)[0])
 
 /* The NATS rows: the daemon again, publishing to node 1 of a three-node cluster; subscribers on
  * nodes 2 and 3. */
@@ -196,7 +199,9 @@ static void bench_nats(const char *meshsteerd, const char *load, const char *con
         run_row(load, &rows[i], secs);
         print_row(&rows[i]);
     }
-    int best = holds_60(&rows[1]) ? search_nats(load, urls, "int16", secs, max_tried) : 0;
+    int best = holds_60(&rows[1])
+                   ? search_60(load, urls, "int16", nats_steps, NSTEPS(nats_steps), secs, max_tried)
+                   : 0;
     printf("\nNATS cluster: largest int16 subscriber count holding 60 fps (every subscriber >= 57 "
            "frames/s): %d%s; e2e (capture -> subscriber) p50 %.2f ms p99 %.2f ms at 64\n",
            best, best >= max_tried ? " (the largest tried)" : "", num(rows[1].j, "e2e_p50_ms"),
@@ -208,7 +213,9 @@ static void bench_nats(const char *meshsteerd, const char *load, const char *con
         row p64 = {64, "params", urls, NULL, 0, 0, 0};
         run_row(load, &p64, secs);
         print_row(&p64);
-        int bp = holds_60(&p64) ? search_nats(load, urls, "params", secs, max_tried) : 0;
+        int bp = holds_60(&p64) ? search_60(load, urls, "params", nats_steps,
+                                            NSTEPS(nats_steps), secs, max_tried)
+                                : 0;
         printf("NATS cluster: largest params subscriber count holding 60 fps: %d%s; e2e p50 %.2f "
                "ms p99 %.2f ms at 64\n", bp, bp >= max_tried ? " (the largest tried)" : "",
                num(p64.j, "e2e_p50_ms"), num(p64.j, "e2e_p99_ms"));
@@ -291,20 +298,10 @@ int main(int argc, char **argv)
         print_row(&rows[i]);
     }
     /* the largest int16 client count that holds 60 fps */
-    int best = holds_60(&rows[2]) ? 64 : 0;
     static const int steps[] = {96, 128, 160, 192, 256, 320, 384, 448, 512, 640, 768, 1024};
-    for (size_t k = 0; best > 0 && k < sizeof steps / sizeof steps[0]; k++) {
-        if (steps[k] > max_tried)
-            break;
-        row r = {steps[k], "int16", NULL, NULL, 0, 0, 0};
-        run_row(load, &r, secs);
-        print_row(&r);
-        int ok = holds_60(&r);
-        cJSON_Delete(r.j);
-        if (!ok)
-            break;
-        best = steps[k];
-    }
+    int best = holds_60(&rows[2])
+                   ? search_60(load, NULL, "int16", steps, NSTEPS(steps), secs, max_tried)
+                   : 0;
     printf("\nlargest int16 client count holding 60 fps (every client >= 57 frames/s): %d%s\n",
            best, best >= max_tried ? " (the largest tried)" : "");
     double p99_1 = num(rows[0].j, "e2e_p99_ms"), p99_64 = num(rows[2].j, "e2e_p99_ms");

@@ -1,6 +1,7 @@
 // browser.mjs - what the browser tests share: Debian's chromium under playwright-core (headless,
 // software WebGL, a fresh profile), exiting 77 (skip) when either is missing; a check() that
-// prints ok/FAIL lines and remembers a failure; and how much of the viewer's canvas is drawn.
+// prints ok/FAIL lines and remembers a failure; drive(), which runs a test's steps on the page and
+// exits with their verdict; and how much of the viewer's canvas is drawn.
 import { existsSync, mkdtempSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
@@ -65,4 +66,28 @@ export function canvasCoverage(page) {
     }
     return { differ: differ / (d.length / 4), colours: colours.size };
   });
+}
+
+// Launches the browser, runs body(page) on its page, prints the page's console when something
+// failed (and window.meshsteer when body threw), closes the browser and exits 0 or 1.
+export async function drive(body) {
+  const { browser, close } = await launch();
+  const logs = [];
+  try {
+    const page = browser.pages()[0] || await browser.newPage();
+    page.on('console', m => logs.push(`${m.type()}: ${m.text()}`));
+    page.on('pageerror', e => logs.push(`pageerror: ${e}`));
+    await body(page);
+    if (result.failed) console.log(logs.join('\n'));
+  } catch (e) {
+    console.error(`FAIL ${e}`);
+    console.error(logs.join('\n'));
+    try {
+      console.error(JSON.stringify(await browser.pages()[0].evaluate(() => window.meshsteer)));
+    } catch (e2) { /* the page is gone */ }
+    result.failed = true;
+  } finally {
+    await close();
+  }
+  process.exit(result.failed ? 1 : 0);
 }

@@ -5,15 +5,10 @@
 // controls (they do not travel over NATS). Then the node it reads from is killed and restarted
 // (MESHSTEER_NATS_RESTART_CMD): the viewer must reconnect by itself and render again.
 // Usage: node nats_viewer.mjs URL SCREENSHOT.png       (exit 77 = skip)
-import { launch, check, result, canvasCoverage } from './browser.mjs';
+import { drive, check, canvasCoverage } from './browser.mjs';
 
 const [url, shot] = process.argv.slice(2);
-const { browser, close } = await launch();
-const logs = [];
-try {
-  const page = browser.pages()[0] || await browser.newPage();
-  page.on('console', m => logs.push(`${m.type()}: ${m.text()}`));
-  page.on('pageerror', e => logs.push(`pageerror: ${e}`));
+await drive(async page => {
   // the daemon's own /stream must not be used: count WebSockets by their URL
   const sockets = [];
   page.on('websocket', ws => sockets.push(ws.url()));
@@ -57,15 +52,4 @@ try {
     await page.waitForFunction(n => window.meshsteer.rendered > n + 10, r, { timeout: 15000 });
     check(true, 'reconnected by itself after its NATS node restarted, and renders again');
   }
-  if (result.failed) console.log(logs.join('\n'));
-} catch (e) {
-  console.error(`FAIL ${e}`);
-  console.error(logs.join('\n'));
-  try {
-    console.error(JSON.stringify(await browser.pages()[0].evaluate(() => window.meshsteer)));
-  } catch (e2) { /* the page is gone */ }
-  result.failed = true;
-} finally {
-  await close();
-}
-process.exit(result.failed ? 1 : 0);
+});

@@ -9,10 +9,9 @@
 //
 // Usage: node viewer.mjs URL SCREENSHOT.png     (exit 77 = skip when chromium or playwright is absent)
 import { readFileSync } from 'node:fs';
-import { launch, check, result, canvasCoverage } from './browser.mjs';
+import { drive, check, canvasCoverage } from './browser.mjs';
 
 const [url, shot] = process.argv.slice(2);
-const { browser, close } = await launch();
 const state = name => shot.replace(/\.png$/, '') + `-${name}.png`;
 
 // The source's frame rate over ms: frames synthesised (seq) per second of capture time, from the
@@ -139,11 +138,7 @@ async function playback(page) {
         `record button: ${webm.length} B WebM (${c.lastClipType}) in 2 s`);
   check(c.errors === 0, `no errors after the controls ${c.lastError}`);
 }
-const logs = [];
-try {
-  const page = browser.pages()[0] || await browser.newPage();
-  page.on('console', m => logs.push(`${m.type()}: ${m.text()}`));
-  page.on('pageerror', e => logs.push(`pageerror: ${e}`));
+await drive(async page => {
   await page.goto(url, { waitUntil: 'load' });
   await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30, null,
                              { timeout: 30000 });
@@ -187,15 +182,4 @@ try {
     await page.waitForFunction(n => window.meshsteer.rendered > n + 10, r, { timeout: 15000 });
     check(true, 'reconnected by itself after a daemon restart and renders again');
   }
-  if (result.failed) console.log(logs.join('\n'));
-} catch (e) {
-  console.error(`FAIL ${e}`);
-  console.error(logs.join('\n'));
-  try {
-    console.error(JSON.stringify(await browser.pages()[0].evaluate(() => window.meshsteer)));
-  } catch (e2) { /* the page is gone */ }
-  result.failed = true;
-} finally {
-  await close();
-}
-process.exit(result.failed ? 1 : 0);
+});
