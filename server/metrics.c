@@ -125,7 +125,7 @@ size_t srv_metrics_render(const srv_metrics *m, double uptime_s, char *buf, size
                 ld(&m->nats_msgs));
         counter(&o, "meshsteer_nats_bytes_total", "Bytes of messages published to NATS.",
                 ld(&m->nats_bytes));
-        counter(&o, "meshsteer_nats_requests_total", "Hello and topology requests answered.",
+        counter(&o, "meshsteer_nats_requests_total", "Hello, topology and ping requests answered.",
                 ld(&m->nats_requests));
         counter(&o, "meshsteer_nats_reconnects_total", "Reconnections to a NATS server.",
                 ld(&m->nats_reconnects));

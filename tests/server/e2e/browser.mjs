@@ -91,3 +91,15 @@ export async function drive(body) {
   }
   process.exit(result.failed ? 1 : 0);
 }
+
+// Opens the viewer at url, waits until it has drawn 30 frames and 3 s more for its fps and latency
+// to settle, prints window.meshsteer and returns a copy of it.
+export async function openViewer(page, url) {
+  await page.goto(url, { waitUntil: 'load' });
+  await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30, null,
+                             { timeout: 30000 });
+  await page.waitForTimeout(3000);
+  const s = await page.evaluate(() => ({ ...window.meshsteer }));
+  console.log(JSON.stringify(s));
+  return s;
+}

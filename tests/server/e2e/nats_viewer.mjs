@@ -5,19 +5,14 @@
 // controls (they do not travel over NATS). Then the node it reads from is killed and restarted
 // (MESHSTEER_NATS_RESTART_CMD): the viewer must reconnect by itself and render again.
 // Usage: node nats_viewer.mjs URL SCREENSHOT.png       (exit 77 = skip)
-import { drive, check, canvasCoverage } from './browser.mjs';
+import { drive, check, canvasCoverage, openViewer } from './browser.mjs';
 
 const [url, shot] = process.argv.slice(2);
 await drive(async page => {
   // the daemon's own /stream must not be used: count WebSockets by their URL
   const sockets = [];
   page.on('websocket', ws => sockets.push(ws.url()));
-  await page.goto(url, { waitUntil: 'load' });
-  await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30, null,
-                             { timeout: 30000 });
-  await page.waitForTimeout(3000);
-  const s = await page.evaluate(() => ({ ...window.meshsteer }));
-  console.log(JSON.stringify(s));
+  const s = await openViewer(page, url);
   check(s.transport === 'nats' && s.connected, `connected over ${s.transport}`);
   check(sockets.length >= 1 && sockets.every(u => !u.includes('/stream')),
         `WebSockets opened: ${sockets.join(', ')} (none to the daemon's /stream)`);

@@ -9,7 +9,7 @@
 //
 // Usage: node viewer.mjs URL SCREENSHOT.png     (exit 77 = skip when chromium or playwright is absent)
 import { readFileSync } from 'node:fs';
-import { drive, check, canvasCoverage } from './browser.mjs';
+import { drive, check, canvasCoverage, openViewer } from './browser.mjs';
 
 const [url, shot] = process.argv.slice(2);
 const state = name => shot.replace(/\.png$/, '') + `-${name}.png`;
@@ -139,13 +139,7 @@ async function playback(page) {
   check(c.errors === 0, `no errors after the controls ${c.lastError}`);
 }
 await drive(async page => {
-  await page.goto(url, { waitUntil: 'load' });
-  await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30, null,
-                             { timeout: 30000 });
-  // a few more seconds for fps and latency to settle
-  await page.waitForTimeout(3000);
-  const s = await page.evaluate(() => ({ ...window.meshsteer }));
-  console.log(JSON.stringify(s));
+  const s = await openViewer(page, url);
   check(s.connected, 'connected');
   check(s.hellos === 1 && s.topologies === 1, 'one hello and one topology');
   check(s.nv > 1000 && s.nf > 1000, `mesh of ${s.nv} vertices, ${s.nf} faces`);
