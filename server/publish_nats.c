@@ -397,10 +397,17 @@ void srv_publisher_destroy(srv_publisher *p)
         natsConnection_Destroy(p->nc);
     }
     natsOptions_Destroy(p->opts);
+    /* libnats delivers the connection's callbacks (disconnected, closed) and the requests' on
+     * threads of its own, possibly after the calls above returned: p lives until they are gone */
+    natsStatus s = nats_CloseAndWait(5000);
     atomic_store(&p->m->nats_connected, 0);
+    if (s != NATS_OK) {
+        srv_log(SRV_LOG_WARN, "nats: the library's threads did not stop in 5 s (%s); its "
+                "state is left in place", natsStatus_GetText(s));
+        return;
+    }
     pthread_cond_destroy(&p->cond);
     pthread_mutex_destroy(&p->lock);
     free(p->copy);
     free(p);
-    nats_CloseAndWait(1000);
 }

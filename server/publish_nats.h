@@ -40,7 +40,8 @@ int srv_publisher_create(const char *urls, const char *prefix, srv_pipeline *pip
                          srv_metrics *m, srv_publisher **out, char *err);
 /* A new frame may be there: wakes the publisher thread; never blocks for long (any thread). */
 void srv_publisher_notify(srv_publisher *p);
-/* Stops the thread and closes the connection. NULL is fine. */
+/* Stops the thread, closes the connection and waits for libnats' own threads to end (so it also
+ * ends the library: one publisher per process, destroyed at exit). NULL is fine. */
 void srv_publisher_destroy(srv_publisher *p);
 
 #endif

@@ -78,7 +78,8 @@ static void on_frame(natsConnection *nc, natsSubscription *s, natsMsg *m, void *
         if (seq <= u->last_seq)
             u->bad++; /* frames go forward, never repeat */
         u->last_seq = seq;
-        u->generation = (uint32_t)le64(d + 8);
+        u->generation = (uint32_t)d[8] | (uint32_t)d[9] << 8 | (uint32_t)d[10] << 16 |
+                        (uint32_t)d[11] << 24;
         u->frames++;
         u->t_last = t;
         if (u->t_reconnected) {
@@ -136,6 +137,15 @@ static uint64_t sub_frames(sub *u)
 {
     pthread_mutex_lock(&u->lock);
     uint64_t n = u->frames;
+    pthread_mutex_unlock(&u->lock);
+    return n;
+}
+
+/* Frames that were not in order or not of the subscribed encoding (0 expected). */
+static uint64_t sub_bad(sub *u)
+{
+    pthread_mutex_lock(&u->lock);
+    uint64_t n = u->bad;
     pthread_mutex_unlock(&u->lock);
     return n;
 }
@@ -204,9 +214,12 @@ static void scenario_failover(void)
            (unsigned long long)fa, (unsigned long long)fb);
     ASSERT_GE(fa, 30); /* the example plays at 30 fps: 60 in 2 s; allow a slow start */
     ASSERT_GE(fb, 30);
-    ASSERT_INT_EQ(a.generation, gen);
-    ASSERT_INT_EQ(a.bad, 0);
-    ASSERT_INT_EQ(b.bad, 0);
+    pthread_mutex_lock(&a.lock);
+    uint32_t gen_a = a.generation;
+    pthread_mutex_unlock(&a.lock);
+    ASSERT_INT_EQ(gen_a, gen);
+    ASSERT_INT_EQ(sub_bad(&a), 0);
+    ASSERT_INT_EQ(sub_bad(&b), 0);
 
     uint64_t t_kill = now_us();
     nats_cluster_kill(&C, 1);
@@ -229,16 +242,24 @@ static void scenario_failover(void)
     ASSERT(!strcmp(url, C.node[2].url));
 
     sleep_ms(2000);
+    uint64_t t_now = now_us();
     pthread_mutex_lock(&a.lock);
     uint64_t fa_after = a.frames_since_reconnect;
     pthread_mutex_unlock(&a.lock);
     uint64_t fb_after = sub_frames(&b) - fb_kill;
-    printf("after the kill: node2 subscriber %llu frames, node3 subscriber %llu frames\n",
-           (unsigned long long)fa_after, (unsigned long long)fb_after);
-    ASSERT_GE(fa_after, 40); /* still streaming at ~30 fps, >= 2/3 of it */
-    ASSERT_GE(fb_after, 50);
-    ASSERT_INT_EQ(a.bad, 0);
-    ASSERT_INT_EQ(b.bad, 0);
+    /* frames/s: before the kill (2 s, both); after it, node 3's subscriber since the kill, the
+     * moved one since its first frame on node 3 */
+    double rate_before = (double)fb / 2.0, rate_b = (double)fb_after / ((t_now - t_kill) * 1e-6);
+    double rate_a = (double)fa_after / ((t_now - t_resume) * 1e-6);
+    printf("after the kill: node2 subscriber %llu frames (%.1f/s), node3 subscriber %llu frames "
+           "(%.1f/s); before it %.1f/s\n", (unsigned long long)fa_after, rate_a,
+           (unsigned long long)fb_after, rate_b, rate_before);
+    /* both keep streaming at the rate they had before the kill (measured, not assumed: the
+     * machine may be busy, or the daemon under a sanitizer) */
+    ASSERT_GE(rate_b, 0.7 * rate_before);
+    ASSERT_GE(rate_a, 0.8 * rate_b);
+    ASSERT_INT_EQ(sub_bad(&a), 0);
+    ASSERT_INT_EQ(sub_bad(&b), 0);
     /* a late joiner through the surviving node still gets the same hello and topology */
     ASSERT_INT_EQ(join(a.nc, "msh.test"), gen);
 
@@ -300,7 +321,7 @@ static void scenario_late(void)
     printf("server up after the daemon: %llu frames in 1.5 s\n",
            (unsigned long long)sub_frames(&a));
     ASSERT_GE(sub_frames(&a), 25);
-    ASSERT_INT_EQ(a.bad, 0);
+    ASSERT_INT_EQ(sub_bad(&a), 0);
     assert_daemon_alive(pid);
     sub_close(&a);
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
