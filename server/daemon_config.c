@@ -250,8 +250,8 @@ static char *trim(char *s)
 int srv_config_parse(srv_config *c, const char *text, size_t len, const char *name, char *err)
 {
     srv_config tmp = *c;
-    char seen[16][32];
-    int seen_line[16];
+    char seen[32][32];
+    int seen_line[32];
     int nseen = 0;
     char line[CFG_MAX_LINE];
     size_t pos = 0;
@@ -302,7 +302,7 @@ int srv_config_parse(srv_config *c, const char *text, size_t len, const char *na
         int r = srv_config_set(&tmp, key, val, e);
         if (r)
             return srv_err(err, r, "%s:%d: %s", name, lineno, e);
-        if (nseen < 16 && strlen(key) < sizeof seen[0]) {
+        if (nseen < 32 && strlen(key) < sizeof seen[0]) {
             snprintf(seen[nseen], sizeof seen[0], "%s", key);
             seen_line[nseen++] = lineno;
         }

@@ -184,7 +184,10 @@ static void publish_latest(srv_publisher *p)
         srv_frame_unref(f);
         return;
     }
-    if (atomic_exchange(&p->announce, 0) || f->gen->id != p->announced_gen)
+    /* a new model's hello and topology before its first frame (not while disconnected: the
+     * connection's callback asks for them again) */
+    if (natsConnection_Status(p->nc) == NATS_CONN_STATUS_CONNECTED &&
+        (atomic_exchange(&p->announce, 0) || f->gen->id != p->announced_gen))
         announce(p, f->gen);
     uint64_t superseded = p->last_seq ? f->seq - p->last_seq - 1 : 0;
     int nenc = 0;

@@ -21,6 +21,7 @@ const stats = {
   latencyMs: NaN,     // capture -> on screen, smoothed; NaN until the clock offset is known
   fps: 0, generation: 0, encoding: params.get('encoding') === 'int16' ? 'int16' : 'float32',
   transport: '',      // 'websocket' (the daemon's /stream) or 'nats' (?nats=ws://...)
+  coalesced: 0,       // NATS: frames that arrived but a newer one replaced before decoding
   nv: 0, nf: 0, nm: 0, lastSeq: 0, lastCaptureUs: 0, model: '',
   bound: 0,           // model markers bound to a live label (hello markers[].bound)
   controls: [],       // the source controls the hello offers (source.controls)
@@ -295,7 +296,7 @@ async function connectNats() {
     onClose: closed,
     onText: guard(onText),
     onBinary: guard(onBinary),
-    onSkipped: n => { stats.dropped += n; },
+    onSkipped: n => { stats.dropped += n; stats.coalesced += n; },
     onError: failed,
   });
 }

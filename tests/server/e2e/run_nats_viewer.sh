@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # run_nats_viewer.sh - the viewer over NATS in headless Chromium (nats_viewer.mjs): two nats-server
 # nodes clustered on loopback, each with a WebSocket listener; meshsteerd publishes to node 1 and
-# serves the page; the page reads from node 2 (?nats=ws://127.0.0.1:WS2). Node 2 is then killed and
+# serves the page; the page reads from node 2 (?nats=ws://127.0.0.1:WS2&encoding=int16). Node 2 is then killed and
 # started again on the same ports, and the viewer must come back by itself. Every process started
 # here is killed on exit, whatever the outcome.
 # Usage: run_nats_viewer.sh MESHSTEERD MAKE_MODEL SCREENSHOT.png        Exit 77 = skipped.
@@ -69,6 +69,7 @@ done
 export MESHSTEER_WEB_DIR=$web
 export MESHSTEER_NATS_RESTART_CMD="kill -9 \$(cat '$dir/node2.pid'); sleep 1; '$dir/start.sh' 2"
 status=0
-node "$here/nats_viewer.mjs" "http://127.0.0.1:$port/?nats=ws://127.0.0.1:$ws2" "$shot" || status=$?
+node "$here/nats_viewer.mjs" "http://127.0.0.1:$port/?nats=ws://127.0.0.1:$ws2&encoding=int16" "$shot" ||
+    status=$?
 [ $status -eq 0 ] || { echo "---- daemon log"; cat "$dir/daemon.log"; for i in 1 2; do echo "---- node$i"; cat "$dir/node$i.log"; done; } >&2
 exit $status
