@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -121,6 +122,8 @@ static void spawn(nats_cluster *c, int i)
     pid_t pid = fork();
     ASSERT(pid >= 0);
     if (pid == 0) {
+        /* dies with this process even when it ends without exit handlers (a sanitizer's abort) */
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
         int fd = open(nd->log, O_WRONLY | O_CREAT | O_APPEND, 0644);
         dup2(fd, 1);
         dup2(fd, 2);

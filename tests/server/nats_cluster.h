@@ -2,7 +2,8 @@
  * nats-server 2.9), each with a client port, a WebSocket port (no TLS), a monitoring port and a
  * cluster port, routed to every other node. Every node started here is killed when the process
  * exits (atexit) or is stopped by SIGINT/SIGTERM/SIGALRM (meson's timeout), also after a failed
- * assertion; the daemon of a harness registered with nats_cluster_adopt too. */
+ * assertion; the daemon of a harness registered with nats_cluster_adopt too. The nodes also die
+ * with this process however it ends (PR_SET_PDEATHSIG), as the daemon does (daemon_harness.c). */
 #ifndef MESHSTEER_TESTS_NATS_CLUSTER_H
 #define MESHSTEER_TESTS_NATS_CLUSTER_H
 
