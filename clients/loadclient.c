@@ -19,11 +19,14 @@
  * masked text frame sent (the encoding request). One recv of up to 1 MB per readable socket, the
  * receipt time taken once per recv. No allocation after start. With -i, every INTERVAL seconds of
  * the measured time also one line: frames/s of the slowest client and the mean over that interval,
- * and how many are still connected (for long runs, tests/server/soak_daemon.c).
+ * and how many are still connected (for long runs, tests/server/soak_daemon.c; WebSocket only).
+ * With --nats the same figures are measured over NATS instead (loadclient_nats.c).
  * Usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16] [-p PORT]
- *                       [-H HOST] [-O ORIGIN] [-i INTERVAL_S] [-j] */
+ *                       [-H HOST] [-O ORIGIN] [-i INTERVAL_S] [-j]
+ *                       [--nats URL[,URL...] [--subject PREFIX]] */
 #include <errno.h>
 #include <getopt.h>
+#include <stdatomic.h>
 #include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
@@ -37,9 +40,10 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "loadclient.h"
 #include "wsframe.h"
 
-#define HEADER 56            /* frame message header (docs/PROTOCOL.md) */
+#define HEADER LOAD_HEADER
 #define RECV_CHUNK (1 << 20) /* one recv takes up to this much */
 #define HS_MAX 2048          /* handshake response headers */
 
@@ -51,23 +55,16 @@ typedef struct conn {
     size_t hs_len;
     ws_rx rx;
     uint64_t t_recv; /* receipt time of the bytes being parsed */
-    /* statistics */
-    uint64_t first_seq, last_seq, frames, skipped;
+    load_stats st;
     uint64_t frames_at_interval; /* frames at the start of the current -i interval */
 } conn;
 
-typedef struct run {
-    int want_enc; /* 0 float32, 1 int16 */
-    const char *encoding;
-    uint64_t t_measure;  /* frames received before this are warm-up */
-    uint32_t *e2e, *srv, *syn; /* microseconds */
-    size_t nlat, caplat;
-    uint64_t lost_lat;   /* latencies beyond caplat (not stored) */
-} run;
+static load_run R;
+static int want_enc;       /* WebSocket: 0 float32, 1 int16 */
+static double interval_s;  /* -i: seconds per progress line, 0 for none */
+static int json_out;       /* -j */
 
-static run R;
-
-static uint64_t now_us(void)
+uint64_t load_now_us(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -121,24 +118,28 @@ static void on_message(void *ud, int binary, const unsigned char *h, size_t head
     (void)len;
     if (!binary || head_len < HEADER || memcmp(h, "MSFR", 4))
         return; /* hello, topology, replies */
-    uint64_t t = c->t_recv;
-    if (h[4] != R.want_enc || t < R.t_measure)
-        return; /* before the encoding switch took effect, or warm-up */
+    if (h[4] != want_enc)
+        return; /* before the encoding switch took effect */
+    load_frame(&R, &c->st, h, c->t_recv);
+}
+
+void load_frame(load_run *r, load_stats *s, const unsigned char *h, uint64_t t)
+{
+    if (t < r->t_measure || t >= r->t_end)
+        return; /* warm-up, or after the end */
     uint64_t seq = le64(h + 24), tc = le64(h + 32), tsy = le64(h + 40), ts = le64(h + 48);
-    if (!c->frames)
-        c->first_seq = seq;
+    if (!s->frames)
+        s->first_seq = seq;
     else
-        c->skipped += le32(h + 20);
-    c->last_seq = seq;
-    c->frames++;
-    if (R.nlat == R.caplat) {
-        R.lost_lat++;
+        s->skipped += le32(h + 20);
+    s->last_seq = seq;
+    s->frames++;
+    size_t i = atomic_fetch_add(&r->nlat, 1);
+    if (i >= r->caplat)
         return;
-    }
-    R.e2e[R.nlat] = (uint32_t)(t > tc ? t - tc : 0);
-    R.srv[R.nlat] = (uint32_t)(ts > tc ? ts - tc : 0);
-    R.syn[R.nlat] = (uint32_t)(tsy > tc ? tsy - tc : 0);
-    R.nlat++;
+    r->e2e[i] = (uint32_t)(t > tc ? t - tc : 0);
+    r->srv[i] = (uint32_t)(ts > tc ? ts - tc : 0);
+    r->syn[i] = (uint32_t)(tsy > tc ? tsy - tc : 0);
 }
 
 /* Ping -> pong with the same payload; close -> answer and stop. */
@@ -240,18 +241,18 @@ static double quant(const uint32_t *v, size_t n, double q)
 }
 
 /* -i: one line for the interval of secs seconds that just ended; starts the next. */
-static void report_interval(conn *c, int n, int k, double secs, int json)
+static void report_interval(conn *c, int n, int k, double secs)
 {
     double fmin = -1, sum = 0;
     int up = 0;
     for (int i = 0; i < n; i++) {
-        double f = (double)(c[i].frames - c[i].frames_at_interval) / secs;
-        c[i].frames_at_interval = c[i].frames;
+        double f = (double)(c[i].st.frames - c[i].frames_at_interval) / secs;
+        c[i].frames_at_interval = c[i].st.frames;
         fmin = fmin < 0 || f < fmin ? f : fmin;
         sum += f;
         up += c[i].state == C_OPEN;
     }
-    if (json)
+    if (json_out)
         printf("{\"interval\":%d,\"seconds\":%g,\"fps_min\":%.2f,\"fps_mean\":%.2f,"
                "\"connected\":%d}\n", k, secs, fmin, sum / n, up);
     else
@@ -260,71 +261,16 @@ static void report_interval(conn *c, int n, int k, double secs, int json)
     fflush(stdout);
 }
 
-int main(int argc, char **argv)
+/* The WebSocket run: n connections to HOST:PORT, each asking for R.encoding. */
+static int ws_run(const char *host, int port, const char *origin, int n, load_stats *st, int *up)
 {
-    int n = 1, port = 8080, opt, json = 0;
-    double secs = 10, warm = 1, interval = 0;
-    const char *host = "127.0.0.1", *origin = NULL;
-    R.encoding = "float32";
-    static const struct option longopts[] = {{"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
-    while ((opt = getopt_long(argc, argv, "n:t:w:e:p:H:O:i:jh", longopts, NULL)) != -1) {
-        switch (opt) {
-        case 'h':
-            printf("usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16]\n"
-                   "                      [-p PORT] [-H HOST] [-O ORIGIN] [-i INTERVAL_S] [-j]\n\n"
-                   "Opens CLIENTS WebSocket connections to meshsteerd (default 1, to 127.0.0.1:8080),\n"
-                   "subscribes each to the stream in the given encoding (default float32), discards\n"
-                   "the first WARMUP_S seconds (default 1), then counts frames for SECONDS (default\n"
-                   "10) and prints frames per second and the capture-to-receive latency (median,\n"
-                   "p99, max). -O sets the Origin header (default http://HOST:PORT); -i prints a\n"
-                   "line every INTERVAL_S seconds of the measured time (frames/s of the slowest client\n"
-                   "and the mean over it, clients still connected); -j prints JSON (one object, and one\n"
-                   "per -i line). Exit status 0 when every client connected and was subscribed, 1 if\n"
-                   "not, 2 on bad usage.\n");
-            return 0;
-        case 'n': n = atoi(optarg); break;
-        case 't': secs = atof(optarg); break;
-        case 'w': warm = atof(optarg); break;
-        case 'e': R.encoding = optarg; break;
-        case 'p': port = atoi(optarg); break;
-        case 'H': host = optarg; break;
-        case 'O': origin = optarg; break;
-        case 'i': interval = atof(optarg); break;
-        case 'j': json = 1; break;
-        default:
-            fprintf(stderr, "usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] "
-                            "[-e float32|int16] [-p PORT] [-H HOST] [-O ORIGIN] [-i INTERVAL_S] "
-                            "[-j]\n");
-            return 2;
-        }
-    }
-    if (n < 1 || n > 10000 || !(secs > 0) || !(warm >= 0) || port < 1 || port > 65535 ||
-        !(interval >= 0)) {
-        fprintf(stderr, "meshsteer-load: bad -n, -t, -w, -p or -i\n");
-        return 2;
-    }
-    if (strcmp(R.encoding, "float32") && strcmp(R.encoding, "int16")) {
-        fprintf(stderr, "meshsteer-load: -e float32 or int16\n");
-        return 2;
-    }
-    char origin_buf[300];
-    if (!origin) {
-        snprintf(origin_buf, sizeof origin_buf, "http://%s:%d", host, port);
-        origin = origin_buf;
-    }
-    R.want_enc = !strcmp(R.encoding, "int16");
-    /* room for 240 frames/s per client over the measured time */
-    R.caplat = (size_t)((double)n * secs * 240) + 1024;
-    R.e2e = malloc(R.caplat * sizeof *R.e2e);
-    R.srv = malloc(R.caplat * sizeof *R.srv);
-    R.syn = malloc(R.caplat * sizeof *R.syn);
     conn *c = calloc((size_t)n, sizeof *c);
     unsigned char *buf = malloc(RECV_CHUNK);
     struct epoll_event *ev = malloc(sizeof *ev * (size_t)n);
     int ep = epoll_create1(EPOLL_CLOEXEC);
-    if (!R.e2e || !R.srv || !R.syn || !c || !buf || !ev || ep < 0) {
+    if (!c || !buf || !ev || ep < 0) {
         fprintf(stderr, "meshsteer-load: out of memory\n");
-        return 1;
+        return -1;
     }
     char portstr[16];
     snprintf(portstr, sizeof portstr, "%d", port);
@@ -332,7 +278,7 @@ int main(int argc, char **argv)
     int gr = getaddrinfo(host, portstr, &hints, &ai);
     if (gr) {
         fprintf(stderr, "meshsteer-load: %s: %s\n", host, gai_strerror(gr));
-        return 1;
+        return -1;
     }
     int opened = 0;
     for (int i = 0; i < n; i++) {
@@ -349,24 +295,22 @@ int main(int argc, char **argv)
     }
     freeaddrinfo(ai);
 
-    uint64_t t0 = now_us();
-    R.t_measure = t0 + (uint64_t)(warm * 1e6);
-    uint64_t end = R.t_measure + (uint64_t)(secs * 1e6);
-    uint64_t step = (uint64_t)(interval * 1e6), next_report = step ? R.t_measure + step : end + 1;
+    uint64_t step = (uint64_t)(interval_s * 1e6);
+    uint64_t next_report = step ? R.t_measure + step : R.t_end + 1;
     int reports = 0;
-    for (uint64_t now = t0; now < end; now = now_us()) {
+    for (uint64_t now = load_now_us(); now < R.t_end; now = load_now_us()) {
         if (now >= next_report) {
-            report_interval(c, n, ++reports, interval, json);
+            report_interval(c, n, ++reports, interval_s);
             next_report += step;
         }
-        uint64_t until = next_report < end ? next_report : end;
+        uint64_t until = next_report < R.t_end ? next_report : R.t_end;
         int k = epoll_wait(ep, ev, n, now < until ? (int)((until - now) / 1000) + 1 : 0);
         for (int i = 0; i < k; i++) {
             conn *cc = ev[i].data.ptr;
             if (cc->state == C_CLOSED)
                 continue;
             ssize_t got = recv(cc->fd, buf, RECV_CHUNK, 0);
-            uint64_t t = now_us();
+            uint64_t t = load_now_us();
             int r = 0;
             if (got > 0)
                 r = cc->state == C_HANDSHAKE ? handshake(cc, buf, (size_t)got, t)
@@ -377,54 +321,154 @@ int main(int argc, char **argv)
                 epoll_ctl(ep, EPOLL_CTL_DEL, cc->fd, NULL);
         }
     }
-    if (step && next_report <= end) /* the interval that ends with the run */
-        report_interval(c, n, ++reports, interval, json);
-
-    int up = 0;
-    uint64_t frames = 0, sent = 0, skipped = 0;
-    double fps_min = -1;
+    if (step && next_report <= R.t_end) /* the interval that ends with the run */
+        report_interval(c, n, ++reports, interval_s);
+    *up = 0;
     for (int i = 0; i < n; i++) {
-        up += c[i].state == C_OPEN;
-        frames += c[i].frames;
-        sent += c[i].frames ? c[i].last_seq - c[i].first_seq + 1 : 0;
-        skipped += c[i].skipped;
-        double f = (double)c[i].frames / secs;
-        fps_min = fps_min < 0 || f < fps_min ? f : fps_min;
+        *up += c[i].state == C_OPEN;
+        st[i] = c[i].st;
         if (c[i].fd >= 0)
             close(c[i].fd);
     }
-    qsort(R.e2e, R.nlat, sizeof *R.e2e, cmp_u32);
-    qsort(R.srv, R.nlat, sizeof *R.srv, cmp_u32);
-    qsort(R.syn, R.nlat, sizeof *R.syn, cmp_u32);
-    double pct = sent ? 100.0 * (double)frames / (double)sent : 0, fps = (double)frames / n / secs;
-    double e50 = quant(R.e2e, R.nlat, 0.5), e99 = quant(R.e2e, R.nlat, 0.99);
-    double emax = quant(R.e2e, R.nlat, 1.0);
-    double s50 = quant(R.srv, R.nlat, 0.5), s99 = quant(R.srv, R.nlat, 0.99);
-    double y50 = quant(R.syn, R.nlat, 0.5), y99 = quant(R.syn, R.nlat, 0.99);
-    if (json)
-        printf("{\"clients\":%d,\"connected\":%d,\"encoding\":\"%s\",\"seconds\":%g,"
-               "\"received\":%llu,\"sent\":%llu,\"skipped\":%llu,\"fps_mean\":%.2f,"
-               "\"fps_min\":%.2f,\"e2e_p50_ms\":%.3f,\"e2e_p99_ms\":%.3f,\"e2e_max_ms\":%.3f,"
-               "\"server_p50_ms\":%.3f,\"server_p99_ms\":%.3f,\"synth_p50_ms\":%.3f,"
-               "\"synth_p99_ms\":%.3f}\n",
-               n, up, R.encoding, secs, (unsigned long long)frames, (unsigned long long)sent,
-               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99, y50, y99);
-    else
-        printf("clients %d (connected %d) encoding %s, %.1f s: frames received %llu of %llu sent "
-               "(%.2f%%), skipped %llu, %.1f frames/s per client (slowest %.1f); end-to-end p50 "
-               "%.2f ms p99 %.2f ms max %.2f ms; capture->send p50 %.2f ms p99 %.2f ms; "
-               "capture->synthesised p50 %.2f ms p99 %.2f ms\n",
-               n, up, R.encoding, secs, (unsigned long long)frames, (unsigned long long)sent, pct,
-               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99, y50, y99);
-    if (R.lost_lat)
-        fprintf(stderr, "meshsteer-load: %llu latencies not stored (more frames than expected)\n",
-                (unsigned long long)R.lost_lat);
     close(ep);
     free(ev);
     free(buf);
     free(c);
+    return opened == n ? 0 : 1;
+}
+
+static const char usage_short[] =
+    "usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e ENCODING]\n"
+    "                      [-p PORT] [-H HOST] [-O ORIGIN] [-i INTERVAL_S] [-j]\n"
+    "                      [--nats URL[,URL...] [--subject PREFIX]]\n";
+
+int main(int argc, char **argv)
+{
+    int n = 1, port = 8080, opt, json = 0;
+    double secs = 10, warm = 1;
+    const char *host = "127.0.0.1", *origin = NULL, *nats = NULL, *prefix = "meshsteer";
+    R.encoding = "float32";
+    enum { O_NATS = 256, O_SUBJECT };
+    static const struct option longopts[] = {{"help", no_argument, NULL, 'h'},
+                                             {"nats", required_argument, NULL, O_NATS},
+                                             {"subject", required_argument, NULL, O_SUBJECT},
+                                             {NULL, 0, NULL, 0}};
+    while ((opt = getopt_long(argc, argv, "n:t:w:e:p:H:O:i:jh", longopts, NULL)) != -1) {
+        switch (opt) {
+        case 'h':
+            printf("%s\n"
+                   "Opens CLIENTS WebSocket connections to meshsteerd (default 1, to 127.0.0.1:8080),\n"
+                   "subscribes each to the stream in the given encoding (default float32), discards\n"
+                   "the first WARMUP_S seconds (default 1), then counts frames for SECONDS (default\n"
+                   "10) and prints frames per second and the capture-to-receive latency (median,\n"
+                   "p99, max). -O sets the Origin header (default http://HOST:PORT); -i prints a\n"
+                   "line every INTERVAL_S seconds of the measured time (frames/s of the slowest client\n"
+                   "and the mean over it, clients still connected; WebSocket only); -j prints JSON\n"
+                   "(one object, and one per -i line).\n"
+                   "--nats: the same over NATS instead: CLIENTS subscribers (one NATS connection\n"
+                   "each, spread round robin over the URLs, e.g. the nodes of a cluster) join as a\n"
+                   "late joiner does (PREFIX.get.hello, PREFIX.get.topology) and subscribe to\n"
+                   "PREFIX.frames.ENCODING (PREFIX: --subject, default meshsteer).\n"
+                   "Exit status 0 when every client connected and was subscribed, 1 if not, 2 on\n"
+                   "bad usage.\n", usage_short);
+            return 0;
+        case 'n': n = atoi(optarg); break;
+        case 't': secs = atof(optarg); break;
+        case 'w': warm = atof(optarg); break;
+        case 'e': R.encoding = optarg; break;
+        case 'p': port = atoi(optarg); break;
+        case 'H': host = optarg; break;
+        case 'O': origin = optarg; break;
+        case 'i': interval_s = atof(optarg); break;
+        case 'j': json = 1; break;
+        case O_NATS: nats = optarg; break;
+        case O_SUBJECT: prefix = optarg; break;
+        default:
+            fputs(usage_short, stderr);
+            return 2;
+        }
+    }
+    if (n < 1 || n > 10000 || !(secs > 0) || !(warm >= 0) || port < 1 || port > 65535 ||
+        !(interval_s >= 0)) {
+        fprintf(stderr, "meshsteer-load: bad -n, -t, -w, -p or -i\n");
+        return 2;
+    }
+    /* over NATS the encoding is a subject name: any the daemon has */
+    if (!nats && strcmp(R.encoding, "float32") && strcmp(R.encoding, "int16")) {
+        fprintf(stderr, "meshsteer-load: -e float32 or int16\n");
+        return 2;
+    }
+    json_out = json;
+    char origin_buf[300];
+    if (!origin) {
+        snprintf(origin_buf, sizeof origin_buf, "http://%s:%d", host, port);
+        origin = origin_buf;
+    }
+    want_enc = !strcmp(R.encoding, "int16");
+    /* room for 240 frames/s per client over the measured time */
+    R.caplat = (size_t)((double)n * secs * 240) + 1024;
+    R.e2e = malloc(R.caplat * sizeof *R.e2e);
+    R.srv = malloc(R.caplat * sizeof *R.srv);
+    R.syn = malloc(R.caplat * sizeof *R.syn);
+    load_stats *st = calloc((size_t)n, sizeof *st);
+    if (!R.e2e || !R.srv || !R.syn || !st) {
+        fprintf(stderr, "meshsteer-load: out of memory\n");
+        return 1;
+    }
+    R.t_measure = load_now_us() + (uint64_t)(warm * 1e6);
+    R.t_end = R.t_measure + (uint64_t)(secs * 1e6);
+    int up = 0;
+    int rc = nats ? load_nats_run(&R, nats, prefix, n, st, &up)
+                  : ws_run(host, port, origin, n, st, &up);
+    if (rc < 0)
+        return nats ? 2 : 1;
+
+    uint64_t frames = 0, sent = 0, skipped = 0;
+    double fps_min = -1;
+    for (int i = 0; i < n; i++) {
+        frames += st[i].frames;
+        sent += st[i].frames ? st[i].last_seq - st[i].first_seq + 1 : 0;
+        skipped += st[i].skipped;
+        double f = (double)st[i].frames / secs;
+        fps_min = fps_min < 0 || f < fps_min ? f : fps_min;
+    }
+    size_t nlat = atomic_load(&R.nlat), lost = 0;
+    if (nlat > R.caplat) {
+        lost = nlat - R.caplat;
+        nlat = R.caplat;
+    }
+    qsort(R.e2e, nlat, sizeof *R.e2e, cmp_u32);
+    qsort(R.srv, nlat, sizeof *R.srv, cmp_u32);
+    qsort(R.syn, nlat, sizeof *R.syn, cmp_u32);
+    double pct = sent ? 100.0 * (double)frames / (double)sent : 0, fps = (double)frames / n / secs;
+    double e50 = quant(R.e2e, nlat, 0.5), e99 = quant(R.e2e, nlat, 0.99);
+    double emax = quant(R.e2e, nlat, 1.0);
+    double s50 = quant(R.srv, nlat, 0.5), s99 = quant(R.srv, nlat, 0.99);
+    double y50 = quant(R.syn, nlat, 0.5), y99 = quant(R.syn, nlat, 0.99);
+    const char *via = nats ? "nats" : "websocket";
+    if (json)
+        printf("{\"clients\":%d,\"connected\":%d,\"transport\":\"%s\",\"encoding\":\"%s\","
+               "\"seconds\":%g,\"received\":%llu,\"sent\":%llu,\"skipped\":%llu,"
+               "\"fps_mean\":%.2f,\"fps_min\":%.2f,\"e2e_p50_ms\":%.3f,\"e2e_p99_ms\":%.3f,"
+               "\"e2e_max_ms\":%.3f,\"server_p50_ms\":%.3f,\"server_p99_ms\":%.3f,"
+               "\"synth_p50_ms\":%.3f,\"synth_p99_ms\":%.3f}\n",
+               n, up, via, R.encoding, secs, (unsigned long long)frames,
+               (unsigned long long)sent, (unsigned long long)skipped, fps, fps_min, e50, e99, emax,
+               s50, s99, y50, y99);
+    else
+        printf("clients %d (connected %d) over %s, encoding %s, %.1f s: frames received %llu of "
+               "%llu sent (%.2f%%), skipped %llu, %.1f frames/s per client (slowest %.1f); "
+               "end-to-end p50 %.2f ms p99 %.2f ms max %.2f ms; capture->send p50 %.2f ms p99 "
+               "%.2f ms; capture->synthesised p50 %.2f ms p99 %.2f ms\n",
+               n, up, via, R.encoding, secs, (unsigned long long)frames,
+               (unsigned long long)sent, pct, (unsigned long long)skipped, fps, fps_min, e50, e99,
+               emax, s50, s99, y50, y99);
+    if (lost)
+        fprintf(stderr, "meshsteer-load: %zu latencies not stored (more frames than expected)\n",
+                lost);
+    free(st);
     free(R.e2e);
     free(R.srv);
     free(R.syn);
-    return up == n && opened == n ? 0 : 1;
+    return up == n && rc == 0 ? 0 : 1;
 }

@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 PACKAGES=(build-essential meson ninja-build pkg-config clang libclang-rt-14-dev
           libopenblas-dev liblapacke-dev libcjson-dev libpng-dev
           libwebsockets-dev libsystemd-dev libopenni2-dev libusb-1.0-0-dev libsuitesparse-dev
-          liblo-dev liblo-tools chromium valgrind assimp-utils)
+          liblo-dev liblo-tools chromium valgrind assimp-utils libnats-dev nats-server esbuild)
 
 setup_packages() {
     local missing=()
@@ -32,11 +32,14 @@ setup_packages() {
     apt-get install -y -qq "${missing[@]}" >/dev/null
 }
 
-# ---- the daemon: the browser viewer's npm packages (three.js; playwright-core for its test) ----
-# Installed from the committed package-lock.json into clients/web/node_modules (not committed).
+# ---- the daemon: the browser viewer's npm packages (three.js; @nats-io/nats-core for ?nats=,
+# bundled for the browser by Debian's esbuild in the package's postinstall; playwright-core for
+# its test). Installed from the committed package-lock.json into clients/web/node_modules (not
+# committed).
 setup_web() {
     local web=clients/web
     [ -f "$web/node_modules/three/build/three.module.js" ] &&
+        [ -f "$web/node_modules/.meshsteer/nats-core.js" ] &&
         [ -d "$web/node_modules/playwright-core" ] && return 0
     command -v npm >/dev/null || { echo "npm is missing (apt-get install npm)" >&2; exit 2; }
     (cd "$web" && npm ci --no-audit --no-fund)

@@ -7,6 +7,7 @@
 #include "daemon_config.h"
 #include "metrics.h"
 #include "pipeline.h"
+#include "publish_nats.h"
 
 #include <libwebsockets.h>
 
@@ -23,6 +24,7 @@ typedef struct srv_daemon {
     srv_config cfg;
     srv_metrics metrics;
     srv_pipeline *pipe;
+    srv_publisher *pub;    /* --publish: the NATS publisher, or NULL */
     struct lws_context *ctx;
     srv_session *sessions; /* every established /stream session */
     int nsessions;

@@ -28,6 +28,7 @@ void srv_config_defaults(srv_config *c)
     snprintf(c->origin, sizeof c->origin, "any");
     c->log_level = SRV_LOG_NOTICE;
     c->encoding = SRV_ENC_FLOAT32;
+    snprintf(c->subject, sizeof c->subject, "meshsteer");
 }
 
 static int set_str(char *dst, size_t cap, const char *key, const char *v, char *err)
@@ -114,6 +115,65 @@ static int set_origin(srv_config *c, const char *v, char *err)
     return set_str(c->origin, sizeof c->origin, "origin", v, err);
 }
 
+/* nats://HOST[:PORT][,nats://HOST[:PORT]...]; HOST a name, an IPv4 address or [IPv6]. */
+static int set_publish(srv_config *c, const char *v, char *err)
+{
+    char tmp[sizeof c->publish];
+    if (strlen(v) >= sizeof tmp)
+        return srv_err(err, -ENAMETOOLONG, "publish: longer than %zu bytes", sizeof tmp - 1);
+    snprintf(tmp, sizeof tmp, "%s", v);
+    int n = 0;
+    for (char *save = NULL, *u = strtok_r(tmp, ",", &save); u; u = strtok_r(NULL, ",", &save)) {
+        while (*u == ' ')
+            u++;
+        if (strncmp(u, "nats://", 7))
+            return srv_err(err, -EINVAL, "publish: '%s' is not a nats://HOST:PORT URL", u);
+        const char *host = u + 7, *end = host;
+        if (*host == '[') {
+            end = strchr(host, ']');
+            if (!end || end == host + 1)
+                return srv_err(err, -EINVAL, "publish: bad IPv6 address in '%s'", u);
+            end++;
+        } else {
+            for (; *end && *end != ':'; end++)
+                if (!isalnum((unsigned char)*end) && !strchr(".-_", *end))
+                    return srv_err(err, -EINVAL, "publish: bad character in host of '%s'", u);
+            if (end == host)
+                return srv_err(err, -EINVAL, "publish: no host in '%s'", u);
+        }
+        if (*end == ':') {
+            int port;
+            int r = set_int(&port, "publish port", end + 1, 1, 65535, err);
+            if (r)
+                return r;
+        } else if (*end) {
+            return srv_err(err, -EINVAL, "publish: '%s' (expected nats://HOST:PORT)", u);
+        }
+        if (++n > 16)
+            return srv_err(err, -E2BIG, "publish: more than 16 servers");
+    }
+    if (!n && *v)
+        return srv_err(err, -EINVAL, "publish: no server URL in '%s'", v);
+    return set_str(c->publish, sizeof c->publish, "publish", v, err);
+}
+
+/* Dot-separated tokens of [A-Za-z0-9_-]: no wildcard, no empty token, no space. */
+static int set_subject(srv_config *c, const char *v, char *err)
+{
+    size_t n = strlen(v);
+    if (!n)
+        return srv_err(err, -EINVAL, "subject: empty");
+    for (size_t i = 0; i < n; i++) {
+        unsigned char ch = (unsigned char)v[i];
+        if (ch == '.' ? i == 0 || i + 1 == n || v[i + 1] == '.'
+                      : !isalnum(ch) && ch != '-' && ch != '_')
+            return srv_err(err, -EINVAL,
+                           "subject: '%s' at byte %zu (use dot-separated tokens of letters, "
+                           "digits, - and _)", v, i);
+    }
+    return set_str(c->subject, sizeof c->subject, "subject", v, err);
+}
+
 int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
 {
     if (!strcmp(key, "model"))
@@ -166,9 +226,14 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
         c->encoding = e;
         return 0;
     }
+    if (!strcmp(key, "publish"))
+        return set_publish(c, v, err);
+    if (!strcmp(key, "subject"))
+        return set_subject(c, v, err);
     return srv_err(err, -ENOENT,
                    "unknown key '%s' (known: model, source, listen, record, max_clients, "
-                   "max_message, idle_timeout, token, origin, web_root, log_level, encoding, labels)",
+                   "max_message, idle_timeout, token, origin, web_root, log_level, encoding, "
+                   "labels, publish, subject)",
                    key);
 }
 
@@ -185,8 +250,8 @@ static char *trim(char *s)
 int srv_config_parse(srv_config *c, const char *text, size_t len, const char *name, char *err)
 {
     srv_config tmp = *c;
-    char seen[16][32];
-    int seen_line[16];
+    char seen[32][32];
+    int seen_line[32];
     int nseen = 0;
     char line[CFG_MAX_LINE];
     size_t pos = 0;
@@ -237,7 +302,7 @@ int srv_config_parse(srv_config *c, const char *text, size_t len, const char *na
         int r = srv_config_set(&tmp, key, val, e);
         if (r)
             return srv_err(err, r, "%s:%d: %s", name, lineno, e);
-        if (nseen < 16 && strlen(key) < sizeof seen[0]) {
+        if (nseen < 32 && strlen(key) < sizeof seen[0]) {
             snprintf(seen[nseen], sizeof seen[0], "%s", key);
             seen_line[nseen++] = lineno;
         }

@@ -22,6 +22,10 @@
  *   encoding      default frame encoding for new clients: float32 | int16 (default float32)
  *   labels        label map MODEL=LABEL[,MODEL=LABEL...]: the model's marker labels (the rig's
  *                 `source`) driven by the source's labels (labels.h); default none (exact names)
+ *   publish       NATS servers to publish the stream to: nats://HOST[:PORT][,nats://...] (one
+ *                 cluster; libnats fails over between them); default none (publish_nats.h)
+ *   subject       subject prefix of the published stream: dot-separated tokens of letters,
+ *                 digits, '-' and '_', default "meshsteer"
  */
 #ifndef MESHSTEER_SERVER_DAEMON_CONFIG_H
 #define MESHSTEER_SERVER_DAEMON_CONFIG_H
@@ -46,6 +50,8 @@ typedef struct srv_config {
     int log_level;  /* SRV_LOG_* */
     int encoding;   /* SRV_ENC_* (encode.h) */
     char labels[4096]; /* label map text, validated (labels.h, SRV_LABELS_MAX_LEN); "" = none */
+    char publish[1024]; /* NATS server URLs, comma-separated; "" = no publishing */
+    char subject[128];  /* NATS subject prefix */
 } srv_config;
 
 void srv_config_defaults(srv_config *c);

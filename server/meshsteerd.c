@@ -3,9 +3,10 @@
  *
  * This file wires the parts together and owns the main thread, which runs the libwebsockets
  * service loop: settings (daemon_config.c), logging (log.c), the pipeline threads (pipeline.c),
- * the /stream protocol (proto_stream.c), /healthz and /metrics (http.c), the viewer as a file
- * mount, signals and systemd notification. Signal handlers only set flags (STYLE.md Sec. 7);
- * a 100 ms lws timer guarantees the loop looks at them. */
+ * the /stream protocol (proto_stream.c), /healthz and /metrics (http.c), the NATS publisher
+ * (publish_nats.c, --publish), the viewer as a file mount, signals and systemd notification.
+ * Signal handlers only set flags (STYLE.md Sec. 7); a 100 ms lws timer guarantees the loop looks
+ * at them. */
 #include "daemon.h"
 #include "log.h"
 #include "srv_err.h"
@@ -58,6 +59,12 @@ static void usage(FILE *f)
             "                          MODEL fed by the source's LABEL (one LABEL may feed\n"
             "                          several); unmapped labels match by name. E.g. a model of\n"
             "                          rigs/horse-human.json on a depth camera: see README\n"
+            "      --publish nats://HOST:PORT[,nats://HOST:PORT...]\n"
+            "                          also publish hello, topology and frames to these NATS\n"
+            "                          servers (one cluster); a server that is down is retried\n"
+            "      --subject PREFIX    NATS subject prefix (default meshsteer): PREFIX.hello,\n"
+            "                          PREFIX.topology, PREFIX.frames.ENCODING, requests on\n"
+            "                          PREFIX.get.hello and PREFIX.get.topology\n"
             "      --log-level LEVEL   error, warn, notice (default), info, debug\n"
             "  -v, --verbose           --log-level info (twice: debug)\n"
             "      --check-config      validate the settings and exit\n"
@@ -92,6 +99,7 @@ static void wake(void *ud)
     srv_daemon *d = ud;
     if (d->ctx)
         lws_cancel_service(d->ctx);
+    srv_publisher_notify(d->pub);
 }
 
 static void tick(lws_sorted_usec_list_t *sul);
@@ -169,7 +177,7 @@ static int build_config(const srv_args *a, srv_config *c, char *err)
 static int parse_args(int argc, char **argv, srv_args *a, srv_config *c, int *check_only)
 {
     enum { O_RECORD = 256, O_MAXC, O_MAXM, O_IDLE, O_TOKEN, O_ORIGIN, O_WEB, O_ENC, O_LOG, O_CHECK,
-           O_VERSION, O_LABELS };
+           O_VERSION, O_LABELS, O_PUBLISH, O_SUBJECT };
     static const struct option opts[] = {
         {"model", required_argument, 0, 'm'},     {"source", required_argument, 0, 's'},
         {"listen", required_argument, 0, 'l'},    {"config", required_argument, 0, 'c'},
@@ -180,6 +188,7 @@ static int parse_args(int argc, char **argv, srv_args *a, srv_config *c, int *ch
         {"log-level", required_argument, 0, O_LOG}, {"verbose", no_argument, 0, 'v'},
         {"check-config", no_argument, 0, O_CHECK}, {"help", no_argument, 0, 'h'},
         {"version", no_argument, 0, O_VERSION},   {"labels", required_argument, 0, O_LABELS},
+        {"publish", required_argument, 0, O_PUBLISH}, {"subject", required_argument, 0, O_SUBJECT},
         {0, 0, 0, 0},
     };
     /* flags override the file: collect them first, read the file, then apply them */
@@ -202,6 +211,8 @@ static int parse_args(int argc, char **argv, srv_args *a, srv_config *c, int *ch
         case O_ENC: key = "encoding"; break;
         case O_LOG: key = "log_level"; break;
         case O_LABELS: key = "labels"; break;
+        case O_PUBLISH: key = "publish"; break;
+        case O_SUBJECT: key = "subject"; break;
         case 'v': a->verbose++; break;
         case O_CHECK: *check_only = 1; break;
         case 'h': usage(stdout); exit(0);
@@ -247,6 +258,8 @@ static int reload_config(srv_daemon *d, const srv_args *a)
         {"record", offsetof(srv_config, record), sizeof fresh.record},
         {"max_message", offsetof(srv_config, max_message), sizeof fresh.max_message},
         {"web_root", offsetof(srv_config, web_root), sizeof fresh.web_root},
+        {"publish", offsetof(srv_config, publish), sizeof fresh.publish},
+        {"subject", offsetof(srv_config, subject), sizeof fresh.subject},
     };
     resolve_web_root(&fresh);
     for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++)
@@ -371,11 +384,20 @@ int main(int argc, char **argv)
         return 1;
     }
     int port = lws_get_vhost_listen_port(lws_get_vhost_by_name(d.ctx, "default"));
+    if (d.cfg.publish[0] &&
+        srv_publisher_create(d.cfg.publish, d.cfg.subject, d.pipe, &d.metrics, &d.pub, err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        lws_context_destroy(d.ctx);
+        d.ctx = NULL;
+        srv_pipeline_destroy(d.pipe);
+        return 1;
+    }
     tick_ctx = d.ctx;
     lws_sul_schedule(d.ctx, 0, &tick_sul, tick, 100 * LWS_US_PER_MS);
 
     if (srv_pipeline_start(d.pipe, err)) {
         srv_log(SRV_LOG_ERROR, "%s", err);
+        srv_publisher_destroy(d.pub);
         lws_context_destroy(d.ctx);
         d.ctx = NULL;
         srv_pipeline_destroy(d.pipe);
@@ -428,6 +450,8 @@ int main(int argc, char **argv)
         srv_log(SRV_LOG_ERROR, "%s", err);
         status = 1;
     }
+    srv_publisher_destroy(d.pub); /* after the pipeline's threads, before the pipeline */
+    d.pub = NULL;
     lws_sul_cancel(&tick_sul);
     lws_context_destroy(d.ctx);
     d.ctx = NULL;

@@ -13,6 +13,9 @@ static const uint64_t bucket_us[SRV_HIST_BUCKETS] = {
 static const char *const drop_names[SRV_DROP_COUNT] = {"synth_busy", "synth_failed", "client_slow",
                                                        "source_error"};
 
+static const char *const nats_drop_names[SRV_NATS_DROP_COUNT] = {"superseded", "disconnected",
+                                                                 "pending", "error"};
+
 void srv_metrics_init(srv_metrics *m)
 {
     memset(m, 0, sizeof *m); /* all-zero is a valid state for these lock-free atomics */
@@ -138,6 +141,24 @@ size_t srv_metrics_render(const srv_metrics *m, double uptime_s, char *buf, size
         counter(&o, "meshsteer_osc_coalesced_total",
                 "OSC frames replaced by a newer one before the daemon read them (latest wins).",
                 ld(&c->coalesced));
+    }
+    if (atomic_load(&m->nats_enabled)) {
+        emit(&o, "# HELP meshsteer_nats_connected 1 while connected to a NATS server.\n"
+                 "# TYPE meshsteer_nats_connected gauge\nmeshsteer_nats_connected %d\n",
+             atomic_load(&m->nats_connected));
+        counter(&o, "meshsteer_nats_messages_total", "Messages published to NATS.",
+                ld(&m->nats_msgs));
+        counter(&o, "meshsteer_nats_bytes_total", "Bytes of messages published to NATS.",
+                ld(&m->nats_bytes));
+        counter(&o, "meshsteer_nats_requests_total", "Hello, topology and ping requests answered.",
+                ld(&m->nats_requests));
+        counter(&o, "meshsteer_nats_reconnects_total", "Reconnections to a NATS server.",
+                ld(&m->nats_reconnects));
+        emit(&o, "# HELP meshsteer_nats_drops_total Frame messages not published to NATS, by "
+                 "reason.\n# TYPE meshsteer_nats_drops_total counter\n");
+        for (int d = 0; d < SRV_NATS_DROP_COUNT; d++)
+            emit(&o, "meshsteer_nats_drops_total{reason=\"%s\"} %llu\n", nats_drop_names[d],
+                 (unsigned long long)ld(&m->nats_drops[d]));
     }
     hist(&o, "meshsteer_synthesis_seconds", "Synthesis plus encoding time per frame.", &m->synth);
     hist(&o, "meshsteer_latency_seconds",

@@ -34,6 +34,15 @@ typedef struct srv_osc_metrics {
         frames, coalesced;
 } srv_osc_metrics;
 
+/* NATS publication: frame messages (one per encoding per frame) not published, by reason */
+enum {
+    SRV_NATS_DROP_SUPERSEDED = 0, /* a newer frame came before the publisher took this one */
+    SRV_NATS_DROP_DISCONNECTED,   /* no connection to a NATS server at the time */
+    SRV_NATS_DROP_PENDING,        /* the connection's outgoing buffer was full */
+    SRV_NATS_DROP_ERROR,          /* the publish failed (e.g. larger than the server's max_payload) */
+    SRV_NATS_DROP_COUNT
+};
+
 typedef struct srv_metrics {
     atomic_uint_fast64_t frames_in;    /* marker frames from the source */
     atomic_uint_fast64_t frames_synth; /* mesh frames synthesised and published */
@@ -50,6 +59,10 @@ typedef struct srv_metrics {
     atomic_uint_fast64_t reloads_ok;
     atomic_uint_fast64_t reloads_failed;
     atomic_int clients;
+    /* NATS publication (publish_nats.c); rendered only when nats_enabled */
+    atomic_int nats_enabled, nats_connected;
+    atomic_uint_fast64_t nats_msgs, nats_bytes, nats_requests, nats_reconnects;
+    atomic_uint_fast64_t nats_drops[SRV_NATS_DROP_COUNT];
     srv_hist synth;   /* synthesis + encoding time */
     srv_hist latency; /* capture -> send, per frame message */
     srv_osc_metrics osc;

@@ -5,7 +5,8 @@
 // live label drives each), the model kind and what drives it. Playback controls (pause/resume, seek,
 // speed) appear for the controls the hello's source.controls offers; a screenshot button saves a PNG
 // and a record button a WebM clip (MediaRecorder). It reconnects by itself (the camera is kept) and
-// exposes its counters as window.meshsteer for tests.
+// exposes its counters as window.meshsteer for tests. With ?nats=ws://HOST:PORT[,...] it reads the
+// same messages from a NATS server's WebSocket listener instead (nats_link.js).
 import * as THREE from './node_modules/three/build/three.module.js';
 import { Orbit } from './orbit.js';
 import * as P from './protocol.js';
@@ -19,6 +20,8 @@ const stats = {
   errors: 0, lastError: '',
   latencyMs: NaN,     // capture -> on screen, smoothed; NaN until the clock offset is known
   fps: 0, generation: 0, encoding: params.get('encoding') === 'int16' ? 'int16' : 'float32',
+  transport: '',      // 'websocket' (the daemon's /stream) or 'nats' (?nats=ws://...)
+  coalesced: 0,       // NATS: frames that arrived but a newer one replaced before decoding
   nv: 0, nf: 0, nm: 0, lastSeq: 0, lastCaptureUs: 0, model: '',
   bound: 0,           // model markers bound to a live label (hello markers[].bound)
   controls: [],       // the source controls the hello offers (source.controls)
@@ -221,39 +224,57 @@ function ping() {
 }
 function serverNowMs() { return performance.now() + offsetMs; }
 
-// ---- the connection
-let ws = null, backoff = 500, pingTimer = null;
+// ---- the connection: the daemon's /stream, or (?nats=ws://...) a NATS server (nats_link.js)
+let ws = null, link = null, backoff = 500, pingTimer = null;
 const status = document.getElementById('status');
 function setStatus(text, bad) { status.textContent = text; status.className = bad ? 'bad' : ''; }
-function send(obj) { if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(obj)); }
+function send(obj) {
+  if (link) link.send(obj);
+  else if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(obj));
+}
+function failed(e) {
+  stats.errors++;
+  stats.lastError = String(e);
+  console.error(e);
+}
+
+function opened(label) {
+  stats.connected = true;
+  stats.connects++;
+  if (stats.connects > 1) stats.reconnects++;
+  backoff = 500;
+  bestRtt = Infinity;
+  setStatus(label);
+  // The offset is only as good as the shortest round trip seen (its error is at most rtt/2), and
+  // the first pings after a connect are slow (the page is still busy): eight pings one after the
+  // other (each sent when the previous pong arrives, so a pong always answers the last ping), then
+  // one every 2 s.
+  pingOpen = false;
+  pingBurst = 8;
+  ping();
+  clearInterval(pingTimer);
+  pingTimer = setInterval(ping, 2000);
+}
+function closed(text) {
+  stats.connected = false;
+  clearInterval(pingTimer);
+  setStatus(text, true);
+}
 
 function connect() {
+  if (params.get('nats')) { connectNats(); return; }
+  stats.transport = 'websocket';
   const proto = location.protocol === 'https:' ? 'wss:' : 'ws:';
   const token = params.get('token');
   const url = `${proto}//${location.host}/stream${token ? '?token=' + encodeURIComponent(token) : ''}`;
   ws = new WebSocket(url, 'meshsteer.v1');
   ws.binaryType = 'arraybuffer';
   ws.onopen = () => {
-    stats.connected = true;
-    stats.connects++;
-    if (stats.connects > 1) stats.reconnects++;
-    backoff = 500;
-    bestRtt = Infinity;
-    setStatus('connected');
+    opened('connected');
     if (stats.encoding !== 'float32') send({ type: 'encoding', encoding: stats.encoding });
-    // The offset is only as good as the shortest round trip seen (its error is at most rtt/2), and
-    // the first pings after a connect are slow (the page is still busy): eight pings one after the
-    // other (each sent when the previous pong arrives, so a pong always answers the last ping), then
-    // one every 2 s.
-    pingOpen = false;
-    pingBurst = 8;
-    ping();
-    pingTimer = setInterval(ping, 2000);
   };
   ws.onclose = () => {
-    stats.connected = false;
-    clearInterval(pingTimer);
-    setStatus(`disconnected; retrying in ${(backoff / 1000).toFixed(1)} s`, true);
+    closed(`disconnected; retrying in ${(backoff / 1000).toFixed(1)} s`);
     setTimeout(connect, backoff);
     backoff = Math.min(backoff * 2, 5000);
   };
@@ -262,11 +283,24 @@ function connect() {
       if (typeof ev.data === 'string') onText(JSON.parse(ev.data));
       else onBinary(ev.data);
     } catch (e) {
-      stats.errors++;
-      stats.lastError = String(e);
-      console.error(e);
+      failed(e);
     }
   };
+}
+
+async function connectNats() {
+  stats.transport = 'nats';
+  const { natsLink } = await import('./nats_link.js');
+  const guard = f => x => { try { f(x); } catch (e) { failed(e); } };
+  link = natsLink(params.get('nats').split(','), params.get('subject') || 'meshsteer',
+                  stats.encoding, {
+    onOpen: () => opened('connected (NATS)'),
+    onClose: closed,
+    onText: guard(onText),
+    onBinary: guard(onBinary),
+    onSkipped: n => { stats.dropped += n; stats.coalesced += n; },
+    onError: failed,
+  });
 }
 
 function onText(msg) {

@@ -6,6 +6,12 @@
  *   histogram's change over the row, as bucket bounds);
  * then the largest client count at which every int16 client still gets 60 fps (>= 95 % of the
  * source's frames), searched upwards.
+ * Then, in the same run, the same through NATS (issue 14 §2): a three-node nats-server cluster on
+ * loopback (nats_cluster.h), the daemon started again with --publish to node 1, and
+ * meshsteer-load --nats subscribers spread over nodes 2 and 3: the same rows, and the largest
+ * subscriber count at which every subscriber gets >= 57 frames/s, for int16 and for params when
+ * the daemon publishes that encoding (said when it does not). Skipped (said so) without
+ * nats-server. The cluster shares the 2 cores with the daemon and the load client.
  * Usage: bench_daemon MESHSTEERD MESHSTEER MESHSTEER_LOAD [SECONDS_PER_ROW] [MAX_CLIENTS_TRIED]
  *                     [fifo]
  * With "fifo" the daemon and the load client run under SCHED_FIFO priority 10 (both inherit it
@@ -13,6 +19,7 @@
  * would run them: on a machine busy with other work, that removes the scheduling tail.
  * Skips (77) without the shared data. Prints a Markdown table. */
 #include "daemon_harness.h"
+#include "nats_cluster.h"
 #include "test.h"
 
 #include <cjson/cJSON.h>
@@ -70,6 +77,7 @@ static double hist_quant(const hist *a, const hist *b, double q)
 typedef struct row {
     int clients;
     const char *enc;
+    const char *nats; /* subscribe through these NATS servers (NULL: WebSocket to the daemon) */
     cJSON *j;
     double m50, m99; /* /metrics capture -> send, bucket bounds in ms */
     double synth_busy;
@@ -90,8 +98,10 @@ static void run_row(const char *load, row *r, double secs)
     snprintf(n, sizeof n, "%d", r->clients);
     snprintf(t, sizeof t, "%g", secs);
     snprintf(port, sizeof port, "%d", H.port);
-    snprintf(out, sizeof out, "%s/load-%d-%s.json", H.dir, r->clients, r->enc);
-    const char *argv[] = {load, "-n", n, "-t", t, "-w", "1.5", "-e", r->enc, "-p", port, "-j", NULL};
+    snprintf(out, sizeof out, "%s/load-%d-%s%s.json", H.dir, r->clients, r->enc,
+             r->nats ? "-nats" : "");
+    const char *argv[] = {load, "-n", n, "-t", t, "-w", "1.5", "-e", r->enc, "-j",
+                          r->nats ? "--nats" : "-p", r->nats ? r->nats : port, NULL};
     int st = harness_run(argv, out);
     read_hist("meshsteer_latency_seconds", &b);
     r->synth_busy = harness_metric(&H, "meshsteer_drops_total{reason=\"synth_busy\"}") - busy0;
@@ -116,17 +126,111 @@ static void print_row(const row *r)
 {
     const cJSON *j = r->j;
     double recv = num(j, "received"), sent = num(j, "sent");
-    printf("| %d | %s | %.0f / %.0f (%.1f %%) | %.1f (slowest %.1f) | %.2f ms | %.2f ms | "
-           "%.2f / %.2f ms | <= %g / <= %g ms | %.0f |\n",
-           r->clients, r->enc, recv, sent, sent > 0 ? 100 * recv / sent : 0, num(j, "fps_mean"),
-           num(j, "fps_min"), num(j, "e2e_p50_ms"), num(j, "e2e_p99_ms"), num(j, "server_p50_ms"),
-           num(j, "server_p99_ms"), r->m50, r->m99, r->synth_busy);
+    char metrics[64] = "-"; /* the /metrics histogram is of WebSocket sends */
+    if (!r->nats)
+        snprintf(metrics, sizeof metrics, "<= %g / <= %g ms", r->m50, r->m99);
+    printf("| %d | %s%s | %.0f / %.0f (%.1f %%) | %.1f (slowest %.1f) | %.2f ms | %.2f ms | "
+           "%.2f / %.2f ms | %s | %.0f |\n",
+           r->clients, r->enc, r->nats ? " (NATS)" : "", recv, sent,
+           sent > 0 ? 100 * recv / sent : 0, num(j, "fps_mean"), num(j, "fps_min"),
+           num(j, "e2e_p50_ms"), num(j, "e2e_p99_ms"), num(j, "server_p50_ms"),
+           num(j, "server_p99_ms"), metrics, r->synth_busy);
     fflush(stdout);
 }
 
 static int holds_60(const row *r)
 {
     return num(r->j, "connected") == r->clients && num(r->j, "fps_min") >= 0.95 * 60;
+}
+
+/* The largest client count (64 held) at which every client gets >= 57 frames/s, trying steps[]
+ * upwards to max_tried; over NATS when nats is set. */
+static int search_60(const char *load, const char *nats, const char *enc, const int *steps,
+                     size_t nsteps, double secs, int max_tried)
+{
+    int best = 64;
+    for (size_t k = 0; k < nsteps && steps[k] <= max_tried; k++) {
+        row r = {steps[k], enc, nats, NULL, 0, 0, 0};
+        run_row(load, &r, secs);
+        print_row(&r);
+        int ok = holds_60(&r);
+        cJSON_Delete(r.j);
+        if (!ok)
+            break;
+        best = steps[k];
+    }
+    return best;
+}
+
+static const int nats_steps[] = {96, 128, 192, 256, 320, 384, 512, 640, 768, 1024};
+#define NSTEPS(a) (sizeof(a) / sizeof(a)[0])
+
+/* The NATS rows: the daemon again, publishing to node 1 of a three-node cluster; subscribers on
+ * nodes 2 and 3. */
+static void bench_nats(const char *meshsteerd, const char *load, const char *const *ws_args,
+                       double secs, int max_tried)
+{
+    if (!nats_server_path()) {
+        printf("\nNATS: skipped, nats-server is not installed\n");
+        return;
+    }
+    static nats_cluster c;
+    nats_cluster_start(&c, 3, H.dir);
+    const char *args[16];
+    int n = 0;
+    while (ws_args[n])
+        args[n] = ws_args[n], n++;
+    args[n++] = "--publish";
+    args[n++] = c.node[0].url;
+    args[n] = NULL;
+    harness_start(&H, meshsteerd, args);
+    nats_cluster_adopt(H.pid);
+    char urls[200];
+    snprintf(urls, sizeof urls, "%s,%s", c.node[1].url, c.node[2].url);
+    printf("\nThrough NATS: the daemon publishes to node 1 of a 3-node nats-server %s cluster on "
+           "loopback; subscribers (one NATS connection each) alternate between nodes 2 and 3\n\n",
+           "2.9");
+    printf("| subscribers | encoding | received / sent | frames/s per subscriber | e2e p50 | "
+           "e2e p99 | capture->publish p50 / p99 (frames) | - | synth_busy drops |\n"
+           "|---:|---|---|---|---:|---:|---|---|---:|\n");
+    row rows[3] = {{1, "int16", urls, NULL, 0, 0, 0}, {64, "int16", urls, NULL, 0, 0, 0},
+                   {64, "float32", urls, NULL, 0, 0, 0}};
+    for (int i = 0; i < 3; i++) {
+        run_row(load, &rows[i], secs);
+        print_row(&rows[i]);
+    }
+    int best = holds_60(&rows[1])
+                   ? search_60(load, urls, "int16", nats_steps, NSTEPS(nats_steps), secs, max_tried)
+                   : 0;
+    printf("\nNATS cluster: largest int16 subscriber count holding 60 fps (every subscriber >= 57 "
+           "frames/s): %d%s; e2e (capture -> subscriber) p50 %.2f ms p99 %.2f ms at 64\n",
+           best, best >= max_tried ? " (the largest tried)" : "", num(rows[1].j, "e2e_p50_ms"),
+           num(rows[1].j, "e2e_p99_ms"));
+    /* params: only when the daemon publishes that encoding */
+    row probe = {1, "params", urls, NULL, 0, 0, 0};
+    run_row(load, &probe, 1);
+    if (num(probe.j, "received") > 0) {
+        row p64 = {64, "params", urls, NULL, 0, 0, 0};
+        run_row(load, &p64, secs);
+        print_row(&p64);
+        int bp = holds_60(&p64) ? search_60(load, urls, "params", nats_steps,
+                                            NSTEPS(nats_steps), secs, max_tried)
+                                : 0;
+        printf("NATS cluster: largest params subscriber count holding 60 fps: %d%s; e2e p50 %.2f "
+               "ms p99 %.2f ms at 64\n", bp, bp >= max_tried ? " (the largest tried)" : "",
+               num(p64.j, "e2e_p50_ms"), num(p64.j, "e2e_p99_ms"));
+        cJSON_Delete(p64.j);
+    } else {
+        printf("NATS cluster, params: not measured, this daemon publishes no params frames "
+               "(no %s.frames.params messages)\n", "meshsteer");
+    }
+    cJSON_Delete(probe.j);
+    for (int i = 0; i < 3; i++)
+        cJSON_Delete(rows[i].j);
+    pid_t pid = H.pid;
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 10000), 0);
+    nats_cluster_disown(pid);
+    nats_cluster_stop(&c);
 }
 
 int main(int argc, char **argv)
@@ -181,27 +285,17 @@ int main(int argc, char **argv)
     printf("| clients | encoding | received / sent | frames/s per client | e2e p50 | e2e p99 | "
            "capture->send p50 / p99 (frames) | capture->send p50 / p99 (/metrics) | "
            "synth_busy drops |\n|---:|---|---|---|---:|---:|---|---|---:|\n");
-    row rows[4] = {{1, "int16", NULL, 0, 0, 0}, {1, "float32", NULL, 0, 0, 0},
-                   {64, "int16", NULL, 0, 0, 0}, {64, "float32", NULL, 0, 0, 0}};
+    row rows[4] = {{1, "int16", NULL, NULL, 0, 0, 0}, {1, "float32", NULL, NULL, 0, 0, 0},
+                   {64, "int16", NULL, NULL, 0, 0, 0}, {64, "float32", NULL, NULL, 0, 0, 0}};
     for (int i = 0; i < 4; i++) {
         run_row(load, &rows[i], secs);
         print_row(&rows[i]);
     }
     /* the largest int16 client count that holds 60 fps */
-    int best = holds_60(&rows[2]) ? 64 : 0;
     static const int steps[] = {96, 128, 160, 192, 256, 320, 384, 448, 512, 640, 768, 1024};
-    for (size_t k = 0; best > 0 && k < sizeof steps / sizeof steps[0]; k++) {
-        if (steps[k] > max_tried)
-            break;
-        row r = {steps[k], "int16", NULL, 0, 0, 0};
-        run_row(load, &r, secs);
-        print_row(&r);
-        int ok = holds_60(&r);
-        cJSON_Delete(r.j);
-        if (!ok)
-            break;
-        best = steps[k];
-    }
+    int best = holds_60(&rows[2])
+                   ? search_60(load, NULL, "int16", steps, NSTEPS(steps), secs, max_tried)
+                   : 0;
     printf("\nlargest int16 client count holding 60 fps (every client >= 57 frames/s): %d%s\n",
            best, best >= max_tried ? " (the largest tried)" : "");
     double p99_1 = num(rows[0].j, "e2e_p99_ms"), p99_64 = num(rows[2].j, "e2e_p99_ms");
@@ -212,6 +306,7 @@ int main(int argc, char **argv)
     for (int i = 0; i < 4; i++)
         cJSON_Delete(rows[i].j);
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 10000), 0);
+    bench_nats(meshsteerd, load, args, secs, max_tried);
     char cmd[1200];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", H.dir);
     if (system(cmd) != 0)

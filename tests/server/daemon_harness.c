@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/time.h>
 #include <sys/wait.h>
@@ -128,6 +129,8 @@ void harness_start(harness *h, const char *meshsteerd, const char *const *args)
     h->pid = fork();
     ASSERT(h->pid >= 0);
     if (h->pid == 0) {
+        /* the daemon dies with the test even when the test ends without exit handlers */
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
         int fd = open(h->log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         dup2(fd, 2);
         /* a later option wins; ignored by a daemon built without sanitizers */

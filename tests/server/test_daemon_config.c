@@ -34,6 +34,8 @@ int main(void)
                        "log_level = debug\n"
                        "encoding = int16\n"
                        "labels = Hips=torso, Neck=head   # the depth camera's labels\n"
+                       "publish = nats://10.0.0.1:4222, nats://nats-2.local:4222,nats://[::1]\n"
+                       "subject = venue-1.horse_a\n"
                        "token = s3cret";
     ASSERT_OK(parse(&c, good, err), err);
     ASSERT(!strcmp(c.model, "/var/lib/meshsteer/horse.msm"));
@@ -46,6 +48,8 @@ int main(void)
     ASSERT_INT_EQ(c.encoding, SRV_ENC_INT16);
     ASSERT(!strcmp(c.token, "s3cret"));
     ASSERT(!strcmp(c.labels, "Hips=torso, Neck=head"));
+    ASSERT(!strcmp(c.publish, "nats://10.0.0.1:4222, nats://nats-2.local:4222,nats://[::1]"));
+    ASSERT(!strcmp(c.subject, "venue-1.horse_a"));
     ASSERT_OK(srv_config_validate(&c, err), err);
 
     /* errors name file:line and leave the old settings untouched */
@@ -70,6 +74,17 @@ int main(void)
         {"labels = Hips=torso,Hips=head\n", "t.conf:1: labels: entry 2 'Hips=head': model label "
                                              "'Hips' is already mapped by entry 1"},
         {"labels = =torso\n", "t.conf:1: labels: entry 1 '=torso': empty model label"},
+        {"publish = tcp://a:4222\n", "t.conf:1: publish: 'tcp://a:4222' is not a nats://"},
+        {"publish = nats://a:0\n", "t.conf:1: publish port: 0 outside [1, 65535]"},
+        {"publish = nats://:4222\n", "t.conf:1: publish: no host in 'nats://:4222'"},
+        {"publish = nats://a b:4222\n", "t.conf:1: publish: bad character in host"},
+        {"publish = nats://a:4222/x\n", "t.conf:1: publish port: '4222/x' is not a whole"},
+        {"publish = nats://[]:4222\n", "t.conf:1: publish: bad IPv6 address"},
+        {"publish = ,\n", "t.conf:1: publish: no server URL"},
+        {"subject = a..b\n", "t.conf:1: subject: 'a..b' at byte 1"},
+        {"subject = a.>\n", "t.conf:1: subject: 'a.>' at byte 2"},
+        {"subject = .a\n", "t.conf:1: subject: '.a' at byte 0"},
+        {"subject =\n", "t.conf:1: subject: empty"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         err[0] = '\0';

@@ -13,39 +13,10 @@
 // are the steering run's.
 //
 // Usage: node viewer.mjs URL SCREENSHOT.png     (exit 77 = skip when chromium or playwright is absent)
-import { existsSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
-import { tmpdir } from 'node:os';
-import { join } from 'node:path';
-import { createRequire } from 'node:module';
+import { readFileSync } from 'node:fs';
+import { drive, check, canvasCoverage, openViewer } from './browser.mjs';
 
 const [url, shot] = process.argv.slice(2);
-const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
-if (!existsSync(chromium)) {
-  console.error(`skip: ${chromium} not installed`);
-  process.exit(77);
-}
-const require = createRequire(process.env.MESHSTEER_WEB_DIR + '/package.json');
-let pw;
-try {
-  pw = require('playwright-core');
-} catch (e) {
-  console.error('skip: playwright-core not installed (npm ci in clients/web)');
-  process.exit(77);
-}
-
-const profile = mkdtempSync(join(tmpdir(), 'meshsteer-chromium-'));
-// a fresh profile directory (playwright passes it to chromium as --user-data-dir)
-const browser = await pw.chromium.launchPersistentContext(profile, {
-  executablePath: chromium,
-  headless: true,
-  viewport: { width: 800, height: 600 },
-  bypassCSP: true, // playwright's waitForFunction evaluates strings; the page itself runs under the CSP
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
-         '--disable-component-update', '--disable-sync', '--no-first-run', '--disable-quic',
-         // WebGL without a GPU: SwiftShader, which recent Chromium enables only on request
-         '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
-});
-let failed = false;
 const state = name => shot.replace(/\.png$/, '') + `-${name}.png`;
 
 // The source's frame rate over ms: frames synthesised (seq) per second of capture time, from the
@@ -172,22 +143,8 @@ async function playback(page) {
         `record button: ${webm.length} B WebM (${c.lastClipType}) in 2 s`);
   check(c.errors === 0, `no errors after the controls ${c.lastError}`);
 }
-const logs = [];
-function check(cond, what) {
-  console.log(`${cond ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!cond) failed = true;
-}
-try {
-  const page = browser.pages()[0] || await browser.newPage();
-  page.on('console', m => logs.push(`${m.type()}: ${m.text()}`));
-  page.on('pageerror', e => logs.push(`pageerror: ${e}`));
-  await page.goto(url, { waitUntil: 'load' });
-  await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30, null,
-                             { timeout: 30000 });
-  // a few more seconds for fps and latency to settle
-  await page.waitForTimeout(3000);
-  const s = await page.evaluate(() => ({ ...window.meshsteer }));
-  console.log(JSON.stringify(s));
+await drive(async page => {
+  const s = await openViewer(page, url);
   check(s.connected, 'connected');
   check(s.hellos === 1 && s.topologies === 1, 'one hello and one topology');
   check(s.nv > 1000 && s.nf > 1000, `mesh of ${s.nv} vertices, ${s.nf} faces`);
@@ -205,22 +162,7 @@ try {
   const tip = await page.evaluate(() => document.getElementById('o-markers').title);
   check(tip.split('\n').length === s.nm && tip.includes(' ← '), 'marker bindings in the overlay');
   // the canvas is not blank: sample the drawn pixels
-  const px = await page.evaluate(() => {
-    const src = document.querySelector('#view canvas');
-    const c = document.createElement('canvas');
-    c.width = 200; c.height = 150;
-    const g = c.getContext('2d');
-    g.drawImage(src, 0, 0, 200, 150);
-    const d = g.getImageData(0, 0, 200, 150).data;
-    const bg = [d[0], d[1], d[2]];
-    let differ = 0;
-    const colours = new Set();
-    for (let i = 0; i < d.length; i += 4) {
-      if (Math.abs(d[i] - bg[0]) + Math.abs(d[i + 1] - bg[1]) + Math.abs(d[i + 2] - bg[2]) > 30) differ++;
-      colours.add((d[i] >> 3) << 10 | (d[i + 1] >> 3) << 5 | (d[i + 2] >> 3));
-    }
-    return { differ: differ / (d.length / 4), colours: colours.size };
-  });
+  const px = await canvasCoverage(page);
   check(px.differ > 0.02 && px.colours > 20,
         `canvas not blank: ${(100 * px.differ).toFixed(1)}% of pixels are not background, ${px.colours} shades`);
   if (process.env.MESHSTEER_KIND === 'harmonic') {
@@ -254,16 +196,4 @@ try {
     await page.waitForFunction(n => window.meshsteer.rendered > n + 10, r, { timeout: 15000 });
     check(true, 'reconnected by itself after a daemon restart and renders again');
   }
-  if (failed) console.log(logs.join('\n'));
-} catch (e) {
-  console.error(`FAIL ${e}`);
-  console.error(logs.join('\n'));
-  try {
-    console.error(JSON.stringify(await browser.pages()[0].evaluate(() => window.meshsteer)));
-  } catch (e2) { /* the page is gone */ }
-  failed = true;
-} finally {
-  await browser.close();
-  rmSync(profile, { recursive: true, force: true });
-}
-process.exit(failed ? 1 : 0);
+});

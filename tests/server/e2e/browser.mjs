@@ -1,0 +1,105 @@
+// browser.mjs - what the browser tests share: Debian's chromium under playwright-core (headless,
+// software WebGL, a fresh profile), exiting 77 (skip) when either is missing; a check() that
+// prints ok/FAIL lines and remembers a failure; drive(), which runs a test's steps on the page and
+// exits with their verdict; and how much of the viewer's canvas is drawn.
+import { existsSync, mkdtempSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { createRequire } from 'node:module';
+
+export async function launch() {
+  const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
+  if (!existsSync(chromium)) {
+    console.error(`skip: ${chromium} not installed`);
+    process.exit(77);
+  }
+  const require = createRequire(process.env.MESHSTEER_WEB_DIR + '/package.json');
+  let pw;
+  try {
+    pw = require('playwright-core');
+  } catch (e) {
+    console.error('skip: playwright-core not installed (npm ci in clients/web)');
+    process.exit(77);
+  }
+  const profile = mkdtempSync(join(tmpdir(), 'meshsteer-chromium-'));
+  // a fresh profile directory (playwright passes it to chromium as --user-data-dir)
+  const browser = await pw.chromium.launchPersistentContext(profile, {
+    executablePath: chromium,
+    headless: true,
+    viewport: { width: 800, height: 600 },
+    bypassCSP: true, // playwright's waitForFunction evaluates strings; the page itself runs under the CSP
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
+           '--disable-component-update', '--disable-sync', '--no-first-run', '--disable-quic',
+           // WebGL without a GPU: SwiftShader, which recent Chromium enables only on request
+           '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+  });
+  return {
+    browser,
+    async close() {
+      await browser.close();
+      rmSync(profile, { recursive: true, force: true });
+    },
+  };
+}
+
+export const result = { failed: false };
+export function check(cond, what) {
+  console.log(`${cond ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!cond) result.failed = true;
+}
+
+// The share of the canvas's pixels that differ from its corner (background) and how many shades.
+export function canvasCoverage(page) {
+  return page.evaluate(() => {
+    const src = document.querySelector('#view canvas');
+    const c = document.createElement('canvas');
+    c.width = 200; c.height = 150;
+    const g = c.getContext('2d');
+    g.drawImage(src, 0, 0, 200, 150);
+    const d = g.getImageData(0, 0, 200, 150).data;
+    const bg = [d[0], d[1], d[2]];
+    let differ = 0;
+    const colours = new Set();
+    for (let i = 0; i < d.length; i += 4) {
+      if (Math.abs(d[i] - bg[0]) + Math.abs(d[i + 1] - bg[1]) + Math.abs(d[i + 2] - bg[2]) > 30) differ++;
+      colours.add((d[i] >> 3) << 10 | (d[i + 1] >> 3) << 5 | (d[i + 2] >> 3));
+    }
+    return { differ: differ / (d.length / 4), colours: colours.size };
+  });
+}
+
+// Launches the browser, runs body(page) on its page, prints the page's console when something
+// failed (and window.meshsteer when body threw), closes the browser and exits 0 or 1.
+export async function drive(body) {
+  const { browser, close } = await launch();
+  const logs = [];
+  try {
+    const page = browser.pages()[0] || await browser.newPage();
+    page.on('console', m => logs.push(`${m.type()}: ${m.text()}`));
+    page.on('pageerror', e => logs.push(`pageerror: ${e}`));
+    await body(page);
+    if (result.failed) console.log(logs.join('\n'));
+  } catch (e) {
+    console.error(`FAIL ${e}`);
+    console.error(logs.join('\n'));
+    try {
+      console.error(JSON.stringify(await browser.pages()[0].evaluate(() => window.meshsteer)));
+    } catch (e2) { /* the page is gone */ }
+    result.failed = true;
+  } finally {
+    await close();
+  }
+  process.exit(result.failed ? 1 : 0);
+}
+
+// Opens the viewer at url, waits until it has drawn 30 frames and 3 s more for its fps and latency
+// to settle, prints window.meshsteer and returns a copy of it.
+export async function openViewer(page, url) {
+  await page.goto(url, { waitUntil: 'load' });
+  await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30, null,
+                             { timeout: 30000 });
+  await page.waitForTimeout(3000);
+  const s = await page.evaluate(() => ({ ...window.meshsteer }));
+  console.log(JSON.stringify(s));
+  return s;
+}
