@@ -117,7 +117,12 @@ void drv_depth_opts_default(drv_depth_opts *o);
 typedef struct drv_depth_result {
     float xyz[DRV_DEPTH_NLABELS][3];  /* metres, Y-up camera frame (smoothed when opts.smooth) */
     float raw[DRV_DEPTH_NLABELS][3];  /* this frame's unsmoothed measurement */
-    uint8_t valid[DRV_DEPTH_NLABELS]; /* 1 when found in this frame */
+    uint8_t valid[DRV_DEPTH_NLABELS]; /* 1 when found in this frame and, for a hand or foot, its
+                                         side is certain: what a marker source publishes */
+    uint8_t side_uncertain[DRV_DEPTH_NLABELS]; /* 1: a hand (foot) was found at xyz, but which
+                                         hand (foot) it is is not certain (label.c): valid is 0,
+                                         so that no consumer takes a guess for a measurement;
+                                         lhand and rhand (lfoot, rfoot) may then both be set */
     float conf[DRV_DEPTH_NLABELS];    /* 0..1 */
     int nextrema;                     /* accumulative geodesic extrema found, followed by the hands
                                          estimated from arm loops (geodesic 0), up to the max */
