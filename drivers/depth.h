@@ -130,6 +130,9 @@ typedef struct drv_depth_result {
     float geodesic[DRV_DEPTH_MAX_EXTREMA]; /* metres from the sources at the time it was found */
     int extremum_label[DRV_DEPTH_MAX_EXTREMA]; /* DRV_DEPTH_* or -1 */
     int extremum_px[DRV_DEPTH_MAX_EXTREMA][2]; /* pixel (u, v) */
+    float left[3];                    /* the body frame's left axis (unit, orthogonal to the
+                                         floor normal): the person's left, from their torso
+                                         (body_frame.c); the camera's +X when facing it */
     int person_cells;                 /* grid cells of the tracked person, 0 = nobody */
     float person_depth;               /* mean depth of the person (metres along the axis) */
     int floor_found;

@@ -28,9 +28,13 @@
 #define ARM_LOW -0.3f   /* a hand this far below the centroid (hanging, next to a dress hem) ... */
 #define ARM_CLIMB 0.15f /* ... has a path from the centroid that climbs at least this (shoulder) */
 #define LEG_CLIMB 0.15f /* ... a foot's at most this */
+#define HAND_REACH 0.65f /* a hand lies at least the centroid-to-shoulder geodesic (~0.45 m) and a
+                           forearm (~0.25 m) from the centroid: a shoulder below a raised arm cut
+                           by the image edge is no hand */
 #define NL 5
 #define MAXE (DRV_DEPTH_MAX_EXTREMA + 2)
 #define LOOP_PENALTY 2.f /* a free hand on a side whose arm closes a loop */
+#define SIDE_MARGIN 1.f  /* a side is certain when swapping the pair costs at least this more */
 
 static float dot3(const float *a, const float *b)
 {
@@ -49,6 +53,12 @@ typedef struct search {
     float best_total;
     unsigned used;
 } search;
+
+/* What label l costs with extremum e (-1: left empty). */
+static float label_cost(const search *s, int l, int e)
+{
+    return e < 0 ? MISS : fminf(s->cost[l][e], 1e6f);
+}
 
 static void dfs(search *s, int l, float total)
 {
@@ -73,7 +83,7 @@ static void dfs(search *s, int l, float total)
 
 void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
                        const float right[3], const drv__label_prev *prev, int label[5],
-                       float conf[5])
+                       float conf[5], uint8_t side_sure[5])
 {
     search s;
     s.nex = nex < MAXE ? nex : MAXE;
@@ -99,7 +109,7 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
         for (int side = 0; side < 2; side++) {
             float sg = side == 0 ? 1.f : -1.f;
             s.cost[1 + side][e] = pos(-sg * la) / 0.04f + pos(-0.6f - h) / 0.1f +
-                                  pos(0.4f - g) / 0.1f +
+                                  pos(HAND_REACH - g) / 0.1f +
                                   (h < ARM_LOW ? pos(ARM_CLIMB - x->path_hmax) / 0.1f : 0.f) + b;
             s.cost[3 + side][e] = h < -0.55f && x->border != 1
                                       ? pos(-sg * la) / 0.04f + pos(h + 0.75f) / 0.1f +
@@ -139,5 +149,17 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
             float c = 1.f - s.cost[k][label[k]] / MISS;
             conf[k] = c < 0 ? 0 : c > 1 ? 1 : c;
         }
+    }
+    /* the sides: how much more the best assignment with the pair's labels swapped costs */
+    for (int k = 0; k < NL; k++)
+        side_sure[k] = 1;
+    for (int pair = 1; pair <= 3; pair += 2) {
+        const int a = s.best[pair], b = s.best[pair + 1];
+        if (a < 0 && b < 0)
+            continue;
+        float now = label_cost(&s, pair, a) + label_cost(&s, pair + 1, b);
+        float swapped = label_cost(&s, pair, b) + label_cost(&s, pair + 1, a);
+        if (swapped - now < SIDE_MARGIN)
+            side_sure[pair] = side_sure[pair + 1] = 0;
     }
 }

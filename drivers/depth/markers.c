@@ -39,6 +39,7 @@ struct drv_depth_tracker {
     float out[DRV_DEPTH_NLABELS][3]; /* last output */
     int missed[DRV_DEPTH_NLABELS];   /* frames since last found; > hold_frames = unknown */
     float person_z;                  /* the person's mean depth in the last frame that had one */
+    drv__body_frame bf;              /* which way the person faces */
 };
 
 void drv_depth_opts_default(drv_depth_opts *o)
@@ -123,6 +124,7 @@ void drv_depth_tracker_reset(drv_depth_tracker *t)
 {
     t->rng = t->o.seed ? t->o.seed : 1;
     t->person_z = 0;
+    drv__body_frame_reset(&t->bf);
     drv__grid_set_step(&t->g, &t->o, t->o.step);
     for (int l = 0; l < DRV_DEPTH_NLABELS; l++) {
         t->missed[l] = INT32_MAX / 2;
@@ -199,14 +201,10 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
             src = g->cells[k];
         }
     }
-    /* body frame */
-    float right[3] = {1, 0, 0};
-    float d = right[0] * up[0] + right[1] * up[1] + right[2] * up[2];
-    for (int a = 0; a < 3; a++)
-        right[a] -= d * up[a];
-    float rn = sqrtf(right[0] * right[0] + right[1] * right[1] + right[2] * right[2]);
-    for (int a = 0; a < 3; a++)
-        right[a] /= rn;
+    /* body frame: up, and the person's left from the torso's surface (body_frame.c) */
+    float right[3];
+    drv__body_frame_update(&t->bf, g, up, right);
+    memcpy(r->left, right, sizeof r->left);
     int nex = drv__geodesic_extrema(&t->ge, g, &t->o, src, up, t->ex, t->o.max_extrema);
     for (int i = 0; i < nex; i++)
         t->ex[i].loop = 0;
@@ -224,7 +222,8 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     }
     int label[5];
     float conf[5];
-    drv__label_assign(t->ex, nex, g->centroid, up, right, &prev, label, conf);
+    uint8_t side_sure[5];
+    drv__label_assign(t->ex, nex, g->centroid, up, right, &prev, label, conf, side_sure);
     for (int l = 0; l < 5; l++) {
         if (label[l] >= 0) {
             if (label[l] < DRV_DEPTH_MAX_EXTREMA)
@@ -245,6 +244,10 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
             }
             emit(t, l, p, t_us, r);
             r->conf[l] = conf[l];
+            if (!side_sure[l]) { /* found, but which side is a guess: not published */
+                r->valid[l] = 0;
+                r->side_uncertain[l] = 1;
+            }
         } else {
             emit(t, l, NULL, t_us, r);
         }
