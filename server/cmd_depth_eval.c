@@ -401,7 +401,7 @@ static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_re
         }
     }
     if (per_frame) {
-        printf(" |");
+        printf(" | left (%.2f %.2f %.2f) |", res->left[0], res->left[1], res->left[2]);
         for (int e = 0; e < res->nextrema; e++)
             printf(" %s(%d,%d g%.2f)",
                    res->extremum_label[e] >= 0 ? drv_depth_label_names[res->extremum_label[e]]
@@ -491,7 +491,7 @@ typedef struct de_run {
     FILE *dumpf;
 } de_run;
 
-/* One placement: a fresh tracker, then per frame: place, render, (dump), track (timed), score;
+/* One placement: a fresh test camera (its noise starts over) and tracker, then per frame: place, render, (dump), track (timed), score;
  * then the report. Returns 0 or the exit status after a message. */
 static int run_placement(de_run *r, double distance, double yaw, de_scores *sc, int first)
 {
@@ -501,7 +501,10 @@ static int run_placement(de_run *r, double distance, double yaw, de_scores *sc, 
     if (status)
         return status;
     drv_depth_tracker *trk = NULL;
-    if (drv_depth_tracker_create(&r->to, &trk, derr))
+    drv_render_destroy(r->ren);
+    r->ren = NULL;
+    if (drv_render_create(&r->ro, r->seq->nv, &r->ren, derr) ||
+        drv_depth_tracker_create(&r->to, &trk, derr))
         return cli_fail(CMD, CLI_EXIT_FAIL, "%s", derr);
     const int nv = r->seq->nv;
     const size_t npix = (size_t)r->ro.k.width * r->ro.k.height;
@@ -542,7 +545,7 @@ int cmd_depth_eval(int argc, char **argv)
     if (status >= 0)
         return status;
 
-    char err[MDL_ERR_LEN] = "", derr[DRV_ERR_LEN] = "";
+    char err[MDL_ERR_LEN] = "";
     status = CLI_EXIT_FAIL;
     mdl_meshseq *seq = NULL;
     mdl_rig *rig = NULL;
@@ -577,10 +580,6 @@ int cmd_depth_eval(int argc, char **argv)
         r.to.cell_m = 0;
     }
     r.to.smooth = o.smooth;
-    if (drv_render_create(&r.ro, nv, &r.ren, derr)) {
-        status = cli_fail(CMD, CLI_EXIT_FAIL, "%s", derr);
-        goto done;
-    }
     const size_t npix = (size_t)r.ro.k.width * r.ro.k.height;
     r.V = malloc((size_t)nv * 3 * sizeof *r.V);
     r.depth = malloc(npix * sizeof *r.depth);
