@@ -8,8 +8,12 @@
  *               downsampled grid, the nearest person-sized component;
  *   geodesic.c  accumulative geodesic extrema (Plagemann et al. 2010, Baak et al. 2011): Dijkstra
  *               from the body centroid, the farthest point becomes a new zero-distance source, repeat;
- *   label.c     head / lhand / rhand / lfoot / rfoot by a cost assignment that includes the previous
- *               frame's markers (temporal consistency), with a confidence per marker;
+ *   body_frame.c  the body frame: up = the floor normal, left = across the torso's depth surface
+ *               (which way the person faces), smoothed over frames;
+ *   label.c     head / lhand / rhand / lfoot / rfoot by a cost assignment in that body frame that
+ *               includes the previous frame's markers (temporal consistency), with a confidence
+ *               per marker; a hand (foot) pair whose swap costs little has an uncertain side and is
+ *               not reported valid (drv_depth_result.side_uncertain);
  *   one_euro.c  One Euro filter (Casiez et al. 2012) per marker coordinate.
  * Output frame: the camera's, in metres, Y up: X to the image's right, Y up, Z towards the viewer
  * (the camera looks along -Z). A person facing the camera has their left hand at +X.

@@ -5,8 +5,9 @@
  * Per frame: sample + gate -> floor plane -> nearest person -> geodesic source = the person's cell
  * nearest to its 3D centroid -> up to max_extrema extrema, plus hands estimated from arm loops
  * (segment.c) -> labels (body frame: up = the floor
- * normal when a floor was found, else the camera's +Y; right = the camera's +X made orthogonal to
- * up) -> per-label filter. A label not found keeps its last output for hold_frames frames (reported
+ * normal when a floor was found, else the camera's +Y; right = the person's left, across the
+ * torso's surface, body_frame.c) -> per-label filter. A hand or foot whose side label.c finds
+ * uncertain is filtered as found but reported not valid (side_uncertain). A label not found keeps its last output for hold_frames frames (reported
  * invalid) so that it can be re-associated; after that its filter restarts. The torso marker is the
  * person's centroid. A hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is
  * placed at the estimated hidden end. A hand from an arm loop (segment.c) is a point on the visible
