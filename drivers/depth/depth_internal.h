@@ -118,6 +118,10 @@ float drv__geodesic_quantum(const drv_depth_opts *o, int step, float z_near);
 int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,
                           int source, const float up[3], drv__extremum *ex, int max);
 
+/* The geodesic graph's max_jump for a person at depth z (markers.c): at least MAX_JUMP_STEPS of
+ * the sensor's depth steps there. */
+float drv__depth_max_jump(const drv_depth_opts *o, float z);
+
 /* ------------------------------------------------------------------ body frame (body_frame.c) */
 
 typedef struct drv__body_frame {
