@@ -53,6 +53,7 @@ static int fit(const drv__grid *g, const float up[3], const float a[3], const fl
 {
     double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
     int n = 0;
+    const float lc = line ? cosf(line[0]) : 0, ls = line ? sinf(line[0]) : 0;
     for (int k = 0; k < g->ncells; k++) {
         const float *p = g->P + 3 * g->cells[k];
         float r[3] = {p[0] - g->centroid[0], p[1] - g->centroid[1], p[2] - g->centroid[2]};
@@ -62,8 +63,7 @@ static int fit(const drv__grid *g, const float up[3], const float a[3], const fl
         float x = dot3(r, a), z = dot3(r, b);
         if (fabsf(cos_l * x + sin_l * z) > TORSO_HALF)
             continue;
-        if (line && fabsf(-sinf(line[0]) * (x - line[1]) + cosf(line[0]) * (z - line[2])) >
-                        TORSO_OFF_LINE)
+        if (line && fabsf(-ls * (x - line[1]) + lc * (z - line[2])) > TORSO_OFF_LINE)
             continue;
         sa += x;
         sb += z;
