@@ -39,6 +39,6 @@ check() {
 #      seq   yaw frames  head hand foot side  side_wrong
 check samba 0   :       0.95 0.9  0.9  0.9   0.02
 check pjump 0   :       0.6  0.9  0.95 0.9   0.02
-check samba 20  :       0.95 0.9  0.8  0.85  0.02
-check pjump 20  0:120   0.6  0.7  0.95 0.8   0.02
+check samba 20  :       0.95 0.95 0.8  0.9   0.02
+check pjump 20  :       0.48 0.8  0.95 0.9   0.02
 echo "depth: ok"
