@@ -8,8 +8,12 @@
  *               downsampled grid, the nearest person-sized component;
  *   geodesic.c  accumulative geodesic extrema (Plagemann et al. 2010, Baak et al. 2011): Dijkstra
  *               from the body centroid, the farthest point becomes a new zero-distance source, repeat;
- *   label.c     head / lhand / rhand / lfoot / rfoot by a cost assignment that includes the previous
- *               frame's markers (temporal consistency), with a confidence per marker;
+ *   body_frame.c  the body frame: up = the floor normal, left = across the torso's depth surface
+ *               (which way the person faces), smoothed over frames;
+ *   label.c     head / lhand / rhand / lfoot / rfoot by a cost assignment in that body frame that
+ *               includes the previous frame's markers (temporal consistency), with a confidence
+ *               per marker; a hand (foot) pair whose swap costs little has an uncertain side and is
+ *               not reported valid (drv_depth_result.side_uncertain);
  *   one_euro.c  One Euro filter (Casiez et al. 2012) per marker coordinate.
  * Output frame: the camera's, in metres, Y up: X to the image's right, Y up, Z towards the viewer
  * (the camera looks along -Z). A person facing the camera has their left hand at +X.
@@ -117,7 +121,12 @@ void drv_depth_opts_default(drv_depth_opts *o);
 typedef struct drv_depth_result {
     float xyz[DRV_DEPTH_NLABELS][3];  /* metres, Y-up camera frame (smoothed when opts.smooth) */
     float raw[DRV_DEPTH_NLABELS][3];  /* this frame's unsmoothed measurement */
-    uint8_t valid[DRV_DEPTH_NLABELS]; /* 1 when found in this frame */
+    uint8_t valid[DRV_DEPTH_NLABELS]; /* 1 when found in this frame and, for a hand or foot, its
+                                         side is certain: what a marker source publishes */
+    uint8_t side_uncertain[DRV_DEPTH_NLABELS]; /* 1: a hand (foot) was found at xyz, but which
+                                         hand (foot) it is is not certain (label.c): valid is 0,
+                                         so that no consumer takes a guess for a measurement;
+                                         lhand and rhand (lfoot, rfoot) may then both be set */
     float conf[DRV_DEPTH_NLABELS];    /* 0..1 */
     int nextrema;                     /* accumulative geodesic extrema found, followed by the hands
                                          estimated from arm loops (geodesic 0), up to the max */
@@ -125,6 +134,9 @@ typedef struct drv_depth_result {
     float geodesic[DRV_DEPTH_MAX_EXTREMA]; /* metres from the sources at the time it was found */
     int extremum_label[DRV_DEPTH_MAX_EXTREMA]; /* DRV_DEPTH_* or -1 */
     int extremum_px[DRV_DEPTH_MAX_EXTREMA][2]; /* pixel (u, v) */
+    float left[3];                    /* the body frame's left axis (unit, orthogonal to the
+                                         floor normal): the person's left, from their torso
+                                         (body_frame.c); the camera's +X when facing it */
     int person_cells;                 /* grid cells of the tracked person, 0 = nobody */
     float person_depth;               /* mean depth of the person (metres along the axis) */
     int floor_found;

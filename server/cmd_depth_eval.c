@@ -9,10 +9,22 @@
  * facing it: the facing direction is (L - R) x up with L, R the means of the rig's left and right
  * hand/foot markers in the first frame; then the person is turned by YAW degrees.
  * Scores: within_10cm[kind] = the fraction of ground-truth extremities of that kind (head; lhand,
- * rhand; lfoot, rfoot) inside the image (out_of_view counts the others) with an extracted marker of the same kind (either side) within 10 cm;
- * side_correct = the fraction of hands and feet whose same-side marker is within 10 cm. Errors are
- * distances to the nearest extracted marker of the same kind (a missing marker counts as infinite
- * and is left out of the error percentiles). Times are those of drv_depth_tracker_process alone. */
+ * rhand; lfoot, rfoot) inside the image (out_of_view counts the others) with an extracted marker of
+ * the same kind (either side; found, whether its side is certain or not) within 10 cm;
+ * side_correct = the fraction of hands and feet whose same-side marker is reported valid (found,
+ * its side certain: drv_depth_result.side_uncertain) and within 10 cm; side_uncertain = the
+ * fraction whose same-side marker was found with its side uncertain; side_wrong = of the hands and
+ * feet reported valid, the fraction that lie more than 10 cm from their own side's ground truth and
+ * within 10 cm of the other side's (a confident swap). wrong_reports[kind] = of the markers of that
+ * kind reported (found), the fraction with no ground truth of the kind within 10 cm (also when it
+ * is out of view: a confident marker where there is none). hidden_hands: hands inside the image
+ * whose pixel shows a surface more than HIDDEN_BEHIND nearer than the hand (behind the body);
+ * of them, the fraction found within 10 cm (predicted) and the fraction with no same-label marker
+ * (marked missing). Errors are distances to the nearest extracted marker of the same kind (a
+ * missing marker counts as infinite and is left out of the error percentiles). Times are those of
+ * drv_depth_tracker_process alone.
+ * Lists of yaws and distances (--yaw -35,0,35 --distance 2,2.5) run every placement in turn, each
+ * with a fresh tracker, one report per placement (a table row, or one JSON object per line). */
 #include "cli.h"
 
 #include "depth.h"
@@ -26,11 +38,15 @@
 
 static const char *CMD = "depth-eval";
 
+#define MAX_PLACEMENTS 16 /* values per list of --yaw and --distance */
+#define HIDDEN_BEHIND 0.08f /* metres: a hand this far behind the surface its pixel shows */
+
 static void help(void)
 {
     printf("usage: meshsteer depth-eval --mesh PATH [--rest REST.obj] --rig RIG.json [--frames SPEC]\n"
-           "                            [--distance M] [--yaw DEG] [--fps F] [--step N] [--no-smooth]\n"
-           "                            [--travel] [--per-frame] [--dump-depth FILE] [--json]\n\n"
+           "                            [--distance M[,M..]] [--yaw DEG[,DEG..]] [--fps F] [--step N]\n"
+           "                            [--no-smooth] [--travel] [--per-frame] [--dump-depth FILE]\n"
+           "                            [--json]\n\n"
            "Renders the mesh sequence as Kinect v1 depth (the test camera), extracts head, hand and\n"
            "foot markers from every frame and scores them against the rig markers named head,\n"
            "lhand, rhand, lfoot, rfoot.\n\n"
@@ -38,8 +54,10 @@ static void help(void)
            "  --rest OBJ       topology of a .pc2\n"
            "  --rig JSON       the rig (DESIGN.md format)\n"
            "  --frames SPEC    start:stop[:step] of the sequence (default all)\n"
-           "  --distance M     metres from the camera to the person (default 2.5)\n"
-           "  --yaw DEG        turn the person away from facing the camera (default 0)\n"
+           "  --distance M     metres from the camera to the person (default 2.5); a comma-separated\n"
+           "                   list (up to %d) scores each distance in turn\n"
+           "  --yaw DEG        turn the person away from facing the camera (default 0); a list as\n"
+           "                   for --distance: every yaw at every distance (the grid)\n"
            "  --fps F          frame rate when the file has none (default 30)\n"
            "  --step N         a fixed tracker grid of N-pixel cells (default: sized by the\n"
            "                   person's distance, 4 pixels at 2.5 m)\n"
@@ -47,11 +65,19 @@ static void help(void)
            "  --travel         keep the performer's travel towards/away from the camera (default:\n"
            "                   each frame's centroid is held at --distance; sideways travel is kept)\n"
            "  --per-frame      print one line per frame: each ground-truth marker's error to the\n"
-           "                   same-label extracted marker (cm, '-' = none, 'o' = out of view) and\n"
-           "                   the extrema with their labels (diagnostics, before the summary)\n"
+           "                   same-label extracted marker (cm, '-' = none, '?' after it = side\n"
+           "                   uncertain, 'o' = out of view, 'h' = hidden behind the body) and the\n"
+           "                   extrema with their labels (diagnostics, before the summary)\n"
            "  --dump-depth FILE  write every rendered frame to FILE as raw 640x480 little-endian\n"
            "                   uint16 millimetres, frame after frame (for offline debugging)\n"
-           "  --json           print one JSON object (otherwise a short table)\n");
+           "  --json           print one JSON object per placement (otherwise a short table)\n\n"
+           "Scores (one placement): within_10cm per kind (head, hand, foot: a marker of the kind,\n"
+           "either side, within 10 cm of the ground truth in view), side_correct (the same side's\n"
+           "marker reported valid - its side certain - and within 10 cm), side_uncertain,\n"
+           "side_wrong (confident swaps), wrong_reports (markers reported where no ground truth\n"
+           "of the kind is within 10 cm), hidden_hands (hands behind the body: how many, how many\n"
+           "predicted within 10 cm, how many marked missing).\n",
+           MAX_PLACEMENTS);
 }
 
 static int cmpd(const void *a, const void *b)
@@ -82,19 +108,47 @@ static void jnum(const char *key, double v, int comma)
         printf("\"%s\": null%s", key, comma ? ", " : "");
 }
 
+static double ratio(int a, int b)
+{
+    return b ? (double)a / b : NAN;
+}
+
 /* ------------------------------------------------------------------ the steps */
 
 typedef struct de_args {
     const char *mesh, *rest, *rig, *frames, *dump;
-    double distance, yaw_deg, fps;
+    double distance[MAX_PLACEMENTS], yaw_deg[MAX_PLACEMENTS], fps;
+    int ndistance, nyaw;
     int json, smooth, step, travel, per_frame;
 } de_args;
+
+/* A comma-separated list of numbers of option opt into v (at most MAX_PLACEMENTS); returns 0 or
+ * the usage error's status. */
+static int parse_list(const char *opt, const char *s, double *v, int *n)
+{
+    char buf[512];
+    if (strlen(s) >= sizeof buf)
+        return cli_usage_error(CMD, "%s: list too long", opt);
+    strcpy(buf, s);
+    *n = 0;
+    for (char *save = NULL, *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+        if (*n == MAX_PLACEMENTS)
+            return cli_usage_error(CMD, "%s: more than %d values", opt, MAX_PLACEMENTS);
+        if (cli_parse_double(CMD, opt, tok, &v[*n]))
+            return CLI_EXIT_USAGE;
+        (*n)++;
+    }
+    if (*n == 0)
+        return cli_usage_error(CMD, "%s: no value in '%s'", opt, s);
+    return 0;
+}
 
 /* Parses the command line into *o. Returns -1 to go on, otherwise the exit status (--help, a
  * usage error). */
 static int parse_args(int argc, char **argv, de_args *o)
 {
-    *o = (de_args){.frames = ":", .distance = 2.5, .fps = 30, .smooth = 1};
+    *o = (de_args){.frames = ":", .distance = {2.5}, .ndistance = 1, .nyaw = 1, .fps = 30,
+                   .smooth = 1};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -122,11 +176,11 @@ static int parse_args(int argc, char **argv, de_args *o)
         } else if (!strcmp(a, "--frames")) {
             o->frames = v, i++;
         } else if (!strcmp(a, "--distance")) {
-            if (cli_parse_double(CMD, a, v, &o->distance))
+            if (parse_list(a, v, o->distance, &o->ndistance))
                 return CLI_EXIT_USAGE;
             i++;
         } else if (!strcmp(a, "--yaw")) {
-            if (cli_parse_double(CMD, a, v, &o->yaw_deg))
+            if (parse_list(a, v, o->yaw_deg, &o->nyaw))
                 return CLI_EXIT_USAGE;
             i++;
         } else if (!strcmp(a, "--fps")) {
@@ -143,12 +197,19 @@ static int parse_args(int argc, char **argv, de_args *o)
     }
     if (!o->mesh || !o->rig)
         return cli_usage_error(CMD, "--mesh and --rig are required (see --help)");
-    if (!(o->distance >= 0.8 && o->distance <= 4.5))
-        return cli_usage_error(CMD, "--distance %g: the Kinect sees 0.8 .. 4.5 m", o->distance);
+    for (int k = 0; k < o->ndistance; k++)
+        if (!(o->distance[k] >= 0.8 && o->distance[k] <= 4.5))
+            return cli_usage_error(CMD, "--distance %g: the Kinect sees 0.8 .. 4.5 m",
+                                   o->distance[k]);
+    for (int k = 0; k < o->nyaw; k++)
+        if (!(fabs(o->yaw_deg[k]) <= 180))
+            return cli_usage_error(CMD, "--yaw %g: must be in [-180, 180]", o->yaw_deg[k]);
     if (!(o->fps > 0 && o->fps <= 1000))
         return cli_usage_error(CMD, "--fps %g: must be in (0, 1000]", o->fps);
     if (o->step && (o->step < 1 || o->step > 16))
         return cli_usage_error(CMD, "--step %d: must be 1 .. 16", o->step);
+    if (o->dump && o->ndistance * o->nyaw > 1)
+        return cli_usage_error(CMD, "--dump-depth takes one placement (one --yaw, one --distance)");
     return -1;
 }
 
@@ -176,10 +237,10 @@ typedef struct de_scene {
     float t[3];      /* then this translation: pivot to (0, *, -distance), floor to y = 0 */
 } de_scene;
 
-/* Floor (lowest vertex), pivot and facing ((L - R) x up, turned to +Z, then by yaw). Returns 0,
- * or the exit status after a message when the left and right markers coincide. */
+/* Floor (lowest vertex), pivot and facing ((L - R) x up, turned to +Z, then by yaw_deg). Returns
+ * 0, or the exit status after a message when the left and right markers coincide. */
 static int place_scene(const mdl_meshseq *seq, const int *idx, int nidx, const int gv[5],
-                       const de_args *o, de_scene *sc)
+                       const char *rigp, double distance, double yaw_deg, de_scene *sc)
 {
     const int nv = seq->nv;
     float floor_y = INFINITY;
@@ -207,13 +268,13 @@ static int place_scene(const mdl_meshseq *seq, const int *idx, int nidx, const i
     /* facing = (L - R) x up = (-az, 0, ax); turn it to +Z (towards the camera), then by yaw */
     double fx = -az, fz = ax;
     if (fx * fx + fz * fz < 1e-12)
-        return cli_fail(CMD, CLI_EXIT_USAGE, "%s: left and right markers coincide", o->rig);
+        return cli_fail(CMD, CLI_EXIT_USAGE, "%s: left and right markers coincide", rigp);
     sc->px = px;
     sc->pz = pz;
-    sc->yaw = (float)(atan2(-fx, fz) + o->yaw_deg * M_PI / 180.0);
+    sc->yaw = (float)(atan2(-fx, fz) + yaw_deg * M_PI / 180.0);
     sc->t[0] = (float)-px;
     sc->t[1] = -floor_y;
-    sc->t[2] = (float)(-o->distance - pz);
+    sc->t[2] = (float)(-distance - pz);
     sc->cy = cosf(sc->yaw);
     sc->sy = sinf(sc->yaw);
     return 0;
@@ -240,42 +301,66 @@ static void place_frame(const de_scene *sc, const float *Vf, int nv, int travel,
  * holds nerr[kind] distances (2 per frame at most), ms one time per frame. */
 typedef struct de_scores {
     int hit[3], total[3], nerr[3];
-    int side_ok, side_total;
+    int side_ok, side_total, side_unsure, side_wrong, side_reported;
+    int reported[3], reported_wrong[3];
+    int hidden, hidden_hit, hidden_missing;
     int per_label_hit[5], per_label_total[5];
     int out_of_view;
     double *ms, *errs[3];
 } de_scores;
 
-/* Scores one frame's tracker result against the ground-truth vertices of V (scene frame); with
- * per_frame, prints each marker's error and then the extrema (one line). */
-static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_render *ren,
-                        const drv_intrinsics *k, const float *V, const int gv[5], int per_frame)
+static int kind_of(int l)
 {
+    return l == 0 ? 0 : l <= 2 ? 1 : 2;
+}
+
+/* The other side's label of a hand or foot. */
+static int other_side(int l)
+{
+    return l == DRV_DEPTH_LHAND ? DRV_DEPTH_RHAND : l == DRV_DEPTH_RHAND ? DRV_DEPTH_LHAND
+                                                  : l == DRV_DEPTH_LFOOT ? DRV_DEPTH_RFOOT
+                                                                         : DRV_DEPTH_LFOOT;
+}
+
+/* Scores one frame's tracker result against the ground-truth vertices of V (scene frame); depth
+ * is the rendered image (for hands hidden behind the body). With per_frame, prints each marker's
+ * error and then the extrema (one line). */
+static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_render *ren,
+                        const drv_intrinsics *k, const uint16_t *depth, const float *V,
+                        const int gv[5], int per_frame)
+{
+    float gt[5][3];
+    int inview[5];
+    uint8_t found[5];
     for (int l = 0; l < 5; l++) {
-        float gt[3];
-        drv_render_world_to_camera(ren, V + 3 * gv[l], gt);
+        drv_render_world_to_camera(ren, V + 3 * gv[l], gt[l]);
+        found[l] = res->valid[l] || res->side_uncertain[l];
         double gu, gvv;
-        if (drv_intrinsics_project(k, gt, &gu, &gvv) || gu < 4 || gvv < 4 || gu > k->width - 5 ||
-            gvv > k->height - 5) {
+        inview[l] = !drv_intrinsics_project(k, gt[l], &gu, &gvv) && gu >= 4 && gvv >= 4 &&
+                    gu <= k->width - 5 && gvv <= k->height - 5;
+        if (!inview[l]) {
             sc->out_of_view++;
             if (per_frame)
                 printf(" %s o(%3.0f,%3.0f)", drv_depth_label_names[l], gu, gvv);
             continue; /* the camera cannot see it (a foot near the camera, a raised hand) */
         }
+        const int kind = kind_of(l);
+        const uint16_t mm = depth[(size_t)lround(gvv) * k->width + lround(gu)];
+        const int hidden = kind == 1 && mm > 0 && mm * 0.001f < -gt[l][2] - HIDDEN_BEHIND;
         if (per_frame) {
-            if (res->valid[l])
-                printf(" %s %3.0f(%3.0f,%3.0f)", drv_depth_label_names[l],
-                       100 * dist3(res->xyz[l], gt), gu, gvv);
+            if (found[l])
+                printf(" %s %3.0f%s(%3.0f,%3.0f)", drv_depth_label_names[l],
+                       100 * dist3(res->xyz[l], gt[l]), res->side_uncertain[l] ? "?" : hidden ? "h" : "",
+                       gu, gvv);
             else
-                printf(" %s   -(%3.0f,%3.0f)", drv_depth_label_names[l], gu, gvv);
+                printf(" %s   -%s(%3.0f,%3.0f)", drv_depth_label_names[l], hidden ? "h" : "", gu,
+                       gvv);
         }
-        int kind = l == 0 ? 0 : l <= 2 ? 1 : 2;
         float best = INFINITY, same = INFINITY;
         for (int m = 0; m < 5; m++) {
-            int mk = m == 0 ? 0 : m <= 2 ? 1 : 2;
-            if (mk != kind || !res->valid[m])
+            if (kind_of(m) != kind || !found[m])
                 continue;
-            float d = dist3(res->xyz[m], gt);
+            float d = dist3(res->xyz[m], gt[l]);
             if (d < best)
                 best = d;
             if (m == l)
@@ -291,12 +376,32 @@ static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_re
             sc->errs[kind][sc->nerr[kind]++] = best;
         if (kind) {
             sc->side_total++;
-            if (same <= 0.10f)
+            if (same <= 0.10f && res->valid[l])
                 sc->side_ok++;
+            if (res->side_uncertain[l])
+                sc->side_unsure++;
+        }
+        if (hidden) {
+            sc->hidden++;
+            sc->hidden_hit += best <= 0.10f;
+            sc->hidden_missing += !found[l];
+        }
+    }
+    /* the reports: is there a ground truth of the kind where a marker was reported? */
+    for (int m = 0; m < 5; m++) {
+        if (!found[m])
+            continue;
+        const int kind = kind_of(m);
+        float own = dist3(res->xyz[m], gt[m]), other = kind ? dist3(res->xyz[m], gt[other_side(m)]) : INFINITY;
+        sc->reported[kind]++;
+        sc->reported_wrong[kind] += !(own <= 0.10f) && !(other <= 0.10f);
+        if (kind && res->valid[m] && inview[m]) {
+            sc->side_reported++;
+            sc->side_wrong += !(own <= 0.10f) && other <= 0.10f;
         }
     }
     if (per_frame) {
-        printf(" |");
+        printf(" | left (%.2f %.2f %.2f) |", res->left[0], res->left[1], res->left[2]);
         for (int e = 0; e < res->nextrema; e++)
             printf(" %s(%d,%d g%.2f)",
                    res->extremum_label[e] >= 0 ? drv_depth_label_names[res->extremum_label[e]]
@@ -306,38 +411,56 @@ static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_re
     }
 }
 
-/* Prints the summary of nidx frames: one JSON object, or a short table. Sorts sc's arrays. */
-static void print_report(const de_args *o, de_scores *sc, int nidx)
+/* Prints the summary of nidx frames at one placement: one JSON object, or a table row (with a
+ * header before the first). Sorts sc's arrays. */
+static void print_report(const de_args *o, double distance, double yaw, de_scores *sc, int nidx,
+                         int first)
 {
     double med, p99;
     cli_percentiles(sc->ms, nidx, &med, &p99);
     const char *kinds[3] = {"head", "hand", "foot"};
     double rate[3], e50[3], e90[3], e99[3];
     for (int k = 0; k < 3; k++) {
-        rate[k] = sc->total[k] ? (double)sc->hit[k] / sc->total[k] : 0;
+        rate[k] = ratio(sc->hit[k], sc->total[k]);
         e50[k] = pct(sc->errs[k], sc->nerr[k], 0.5);
         e90[k] = pct(sc->errs[k], sc->nerr[k], 0.9);
         e99[k] = pct(sc->errs[k], sc->nerr[k], 0.99);
     }
-    double side = sc->side_total ? (double)sc->side_ok / sc->side_total : 0.0;
+    double side = ratio(sc->side_ok, sc->side_total);
     if (!o->json) {
-        printf("frames %d at %.2f m, yaw %.1f deg\n", nidx, o->distance, o->yaw_deg);
+        if (first)
+            printf("frames %d; within 10 cm per kind (ground truths in view), side: correct / "
+                   "uncertain / confidently wrong; hands behind the body: found / missing\n"
+                   "  dist    yaw   head         hand         foot         side               "
+                   "hidden hands      ms median/p99\n",
+                   nidx);
+        printf("  %.2f %6.1f", distance, yaw);
         for (int k = 0; k < 3; k++)
-            printf("  %-5s within 10 cm %.3f   error median %.3f m, p90 %.3f m\n", kinds[k],
-                   rate[k], e50[k], e90[k]);
-        printf("  side correct %.3f\n  depth->markers %.3f ms median, %.3f ms p99\n", side, med,
-               p99);
+            printf("   %5.3f %4d", rate[k], sc->total[k]);
+        printf("   %5.3f %5.3f %5.3f   %4d %5.3f %5.3f   %.3f/%.3f\n", side,
+               ratio(sc->side_unsure, sc->side_total), ratio(sc->side_wrong, sc->side_reported),
+               sc->hidden, ratio(sc->hidden_hit, sc->hidden), ratio(sc->hidden_missing, sc->hidden),
+               med, p99);
         return;
     }
     printf("{\"frames\": %d, \"distance\": %.3f, \"yaw\": %.3f, \"travel\": %s, \"within_10cm\": {",
-           nidx, o->distance, o->yaw_deg, o->travel ? "true" : "false");
+           nidx, distance, yaw, o->travel ? "true" : "false");
     for (int k = 0; k < 3; k++)
         jnum(kinds[k], rate[k], k < 2);
-    printf("}, \"side_correct\": %.4f, \"per_marker_same_side_10cm\": {", side);
+    printf("}, \"in_view\": {\"head\": %d, \"hand\": %d, \"foot\": %d}, ", sc->total[0],
+           sc->total[1], sc->total[2]);
+    jnum("side_correct", side, 1);
+    jnum("side_uncertain", ratio(sc->side_unsure, sc->side_total), 1);
+    jnum("side_wrong", ratio(sc->side_wrong, sc->side_reported), 1);
+    printf("\"wrong_reports\": {");
+    for (int k = 0; k < 3; k++)
+        jnum(kinds[k], ratio(sc->reported_wrong[k], sc->reported[k]), k < 2);
+    printf("}, \"hidden_hands\": {\"count\": %d, ", sc->hidden);
+    jnum("found_10cm", ratio(sc->hidden_hit, sc->hidden), 1);
+    jnum("missing", ratio(sc->hidden_missing, sc->hidden), 0);
+    printf("}, \"per_marker_same_side_10cm\": {");
     for (int l = 0; l < 5; l++)
-        jnum(drv_depth_label_names[l],
-             sc->per_label_total[l] ? (double)sc->per_label_hit[l] / sc->per_label_total[l] : NAN,
-             l < 4);
+        jnum(drv_depth_label_names[l], ratio(sc->per_label_hit[l], sc->per_label_total[l]), l < 4);
     printf("}, \"error_m\": {");
     for (int k = 0; k < 3; k++) {
         printf("\"%s\": {", kinds[k]);
@@ -353,10 +476,68 @@ static void print_report(const de_args *o, de_scores *sc, int nidx)
 
 /* ------------------------------------------------------------------ the command */
 
+/* What every placement shares: the sequence, the frames, the ground truth, the buffers. */
+typedef struct de_run {
+    const de_args *o;
+    const mdl_meshseq *seq;
+    const int *idx;
+    int nidx, gv[5];
+    double fps;
+    drv_render *ren;
+    drv_render_opts ro;
+    drv_depth_opts to;
+    float *V;
+    uint16_t *depth;
+    FILE *dumpf;
+} de_run;
+
+/* One placement: a fresh test camera (its noise starts over) and tracker, then per frame: place, render, (dump), track (timed), score;
+ * then the report. Returns 0 or the exit status after a message. */
+static int run_placement(de_run *r, double distance, double yaw, de_scores *sc, int first)
+{
+    char derr[DRV_ERR_LEN] = "";
+    de_scene scene;
+    int status = place_scene(r->seq, r->idx, r->nidx, r->gv, r->o->rig, distance, yaw, &scene);
+    if (status)
+        return status;
+    drv_depth_tracker *trk = NULL;
+    drv_render_destroy(r->ren);
+    r->ren = NULL;
+    if (drv_render_create(&r->ro, r->seq->nv, &r->ren, derr) ||
+        drv_depth_tracker_create(&r->to, &trk, derr))
+        return cli_fail(CMD, CLI_EXIT_FAIL, "%s", derr);
+    const int nv = r->seq->nv;
+    const size_t npix = (size_t)r->ro.k.width * r->ro.k.height;
+    *sc = (de_scores){.ms = sc->ms, .errs = {sc->errs[0], sc->errs[1], sc->errs[2]}}; /* counts 0 */
+    for (int k = 0; k < r->nidx; k++) {
+        place_frame(&scene, r->seq->V + (size_t)r->idx[k] * nv * 3, nv, r->o->travel, r->V);
+        if (drv_render_frame(r->ren, r->V, nv, r->seq->F, r->seq->nf, r->depth, derr)) {
+            status = cli_fail(CMD, CLI_EXIT_FAIL, "frame %d: %s", r->idx[k], derr);
+            break;
+        }
+        if (r->dumpf && fwrite(r->depth, sizeof *r->depth, npix, r->dumpf) != npix) {
+            status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: write failed", r->o->dump);
+            break;
+        }
+        drv_depth_result res;
+        struct timespec a, b;
+        clock_gettime(CLOCK_MONOTONIC, &a);
+        drv_depth_tracker_process(trk, r->depth, (uint64_t)llround(k * 1e6 / r->fps), &res);
+        clock_gettime(CLOCK_MONOTONIC, &b);
+        sc->ms[k] = (double)(b.tv_sec - a.tv_sec) * 1e3 + (double)(b.tv_nsec - a.tv_nsec) * 1e-6;
+        if (r->o->per_frame)
+            printf("%4d", r->idx[k]);
+        score_frame(sc, &res, r->ren, &r->ro.k, r->depth, r->V, r->gv, r->o->per_frame);
+    }
+    drv_depth_tracker_destroy(trk);
+    if (!status)
+        print_report(r->o, distance, yaw, sc, r->nidx, first);
+    return status;
+}
+
 int cmd_depth_eval(int argc, char **argv);
 
-/* Reads the sequence and the rig, places the scene, then per frame: place, render, (dump), track
- * (timed), score; then the report. */
+/* Reads the sequence and the rig, then scores every placement (distance x yaw). */
 int cmd_depth_eval(int argc, char **argv)
 {
     de_args o;
@@ -364,98 +545,68 @@ int cmd_depth_eval(int argc, char **argv)
     if (status >= 0)
         return status;
 
-    char err[MDL_ERR_LEN] = "", derr[DRV_ERR_LEN] = "";
+    char err[MDL_ERR_LEN] = "";
     status = CLI_EXIT_FAIL;
     mdl_meshseq *seq = NULL;
     mdl_rig *rig = NULL;
-    int *idx = NULL, nidx = 0, gv[5];
-    drv_render *ren = NULL;
-    drv_depth_tracker *trk = NULL;
-    float *V = NULL;
-    uint16_t *depth = NULL;
-    FILE *dumpf = NULL;
+    int *idx = NULL;
+    de_run r = {.o = &o};
     de_scores sc = {0};
-    de_scene scene;
     if (mdl_meshseq_read(o.mesh, o.rest, &seq, err) || mdl_rig_read(o.rig, seq->nv, &rig, err)) {
         status = cli_fail(CMD, CLI_EXIT_USAGE, "%s", err);
         goto done;
     }
-    if (mdl_parse_frames(o.frames, seq->frames, &idx, &nidx, err)) {
+    if (mdl_parse_frames(o.frames, seq->frames, &idx, &r.nidx, err)) {
         status = cli_fail(CMD, CLI_EXIT_USAGE, "--frames: %s", err);
         goto done;
     }
-    if (nidx < 1) {
+    if (r.nidx < 1) {
         status = cli_fail(CMD, CLI_EXIT_USAGE, "--frames %s selects no frame", o.frames);
         goto done;
     }
-    if ((status = truth_vertices(rig, o.rig, gv)) ||
-        (status = place_scene(seq, idx, nidx, gv, &o, &scene)))
+    r.seq = seq;
+    r.idx = idx;
+    if ((status = truth_vertices(rig, o.rig, r.gv)))
         goto done;
     status = CLI_EXIT_FAIL;
     const int nv = seq->nv;
-    const double fps = seq->fps > 0 ? seq->fps : o.fps;
-
-    drv_render_opts ro;
-    drv_render_opts_default(&ro);
-    ro.cam_height = 1.0f;
-    ro.cam_pitch = 2.0f;
-    drv_depth_opts to;
-    drv_depth_opts_default(&to);
+    r.fps = seq->fps > 0 ? seq->fps : o.fps;
+    drv_render_opts_default(&r.ro);
+    r.ro.cam_height = 1.0f;
+    r.ro.cam_pitch = 2.0f;
+    drv_depth_opts_default(&r.to);
     if (o.step) { /* a fixed grid */
-        to.step = o.step;
-        to.cell_m = 0;
+        r.to.step = o.step;
+        r.to.cell_m = 0;
     }
-    to.smooth = o.smooth;
-    if (drv_render_create(&ro, nv, &ren, derr) || drv_depth_tracker_create(&to, &trk, derr)) {
-        status = cli_fail(CMD, CLI_EXIT_FAIL, "%s", derr);
-        goto done;
-    }
-    const size_t npix = (size_t)ro.k.width * ro.k.height;
-    V = malloc((size_t)nv * 3 * sizeof *V);
-    depth = malloc(npix * sizeof *depth);
-    sc.ms = malloc((size_t)nidx * sizeof *sc.ms);
+    r.to.smooth = o.smooth;
+    const size_t npix = (size_t)r.ro.k.width * r.ro.k.height;
+    r.V = malloc((size_t)nv * 3 * sizeof *r.V);
+    r.depth = malloc(npix * sizeof *r.depth);
+    sc.ms = malloc((size_t)r.nidx * sizeof *sc.ms);
     for (int k = 0; k < 3; k++)
-        sc.errs[k] = malloc((size_t)nidx * 2 * sizeof *sc.errs[k]);
-    if (!V || !depth || !sc.ms || !sc.errs[0] || !sc.errs[1] || !sc.errs[2]) {
+        sc.errs[k] = malloc((size_t)r.nidx * 2 * sizeof *sc.errs[k]);
+    if (!r.V || !r.depth || !sc.ms || !sc.errs[0] || !sc.errs[1] || !sc.errs[2]) {
         status = cli_fail(CMD, CLI_EXIT_FAIL, "out of memory");
         goto done;
     }
-    if (o.dump && !(dumpf = fopen(o.dump, "wb"))) {
+    if (o.dump && !(r.dumpf = fopen(o.dump, "wb"))) {
         status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: %s", o.dump, strerror(errno));
         goto done;
     }
-    for (int k = 0; k < nidx; k++) {
-        place_frame(&scene, seq->V + (size_t)idx[k] * nv * 3, nv, o.travel, V);
-        if (drv_render_frame(ren, V, nv, seq->F, seq->nf, depth, derr)) {
-            status = cli_fail(CMD, CLI_EXIT_FAIL, "frame %d: %s", idx[k], derr);
-            goto done;
-        }
-        if (dumpf && fwrite(depth, sizeof *depth, npix, dumpf) != npix) {
-            status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: write failed", o.dump);
-            goto done;
-        }
-        drv_depth_result res;
-        struct timespec a, b;
-        clock_gettime(CLOCK_MONOTONIC, &a);
-        drv_depth_tracker_process(trk, depth, (uint64_t)llround(k * 1e6 / fps), &res);
-        clock_gettime(CLOCK_MONOTONIC, &b);
-        sc.ms[k] = (double)(b.tv_sec - a.tv_sec) * 1e3 + (double)(b.tv_nsec - a.tv_nsec) * 1e-6;
-        if (o.per_frame)
-            printf("%4d", idx[k]);
-        score_frame(&sc, &res, ren, &ro.k, V, gv, o.per_frame);
-    }
-    print_report(&o, &sc, nidx);
     status = CLI_EXIT_OK;
+    for (int d = 0; d < o.ndistance && status == CLI_EXIT_OK; d++)
+        for (int y = 0; y < o.nyaw && status == CLI_EXIT_OK; y++)
+            status = run_placement(&r, o.distance[d], o.yaw_deg[y], &sc, d == 0 && y == 0);
 done:
-    if (dumpf)
-        fclose(dumpf);
+    if (r.dumpf)
+        fclose(r.dumpf);
     for (int k = 0; k < 3; k++)
         free(sc.errs[k]);
     free(sc.ms);
-    free(depth);
-    free(V);
-    drv_depth_tracker_destroy(trk);
-    drv_render_destroy(ren);
+    free(r.depth);
+    free(r.V);
+    drv_render_destroy(r.ren);
     free(idx);
     mdl_rig_destroy(rig);
     mdl_meshseq_destroy(seq);

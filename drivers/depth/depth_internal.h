@@ -70,8 +70,9 @@ struct drv__extremum {
     float tip[3];     /* mean of the cells within tip_radius of it */
     float anchor[3];  /* a point on the limb, ANCHOR_BACK back from the tip along its path
                          from the source (geodesic.c): tells the side when tips cross */
-    int border;       /* within 2.5% of the image border (likely a cut, not an extremity): 1 at the
-                         top or a side, 2 at the bottom only (a foot standing below the view) */
+    int border;       /* in the grid's outermost row or column: a limb cut by the image's edge,
+                         not an extremity: 1 at the top or a side, 2 at the bottom only (a foot
+                         standing below the view) */
     int loop;         /* 0: a geodesic extremum; +1 / -1: a hand estimated from an arm loop on the
                          camera's +X / -X side (drv__segment_arm_loops) */
     float path_hmax;  /* the highest point (metres above the source, along `up`) of its shortest
@@ -117,6 +118,23 @@ float drv__geodesic_quantum(const drv_depth_opts *o, int step, float z_near);
 int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,
                           int source, const float up[3], drv__extremum *ex, int max);
 
+/* The geodesic graph's max_jump for a person at depth z (markers.c): at least MAX_JUMP_STEPS of
+ * the sensor's depth steps there. */
+float drv__depth_max_jump(const drv_depth_opts *o, float z);
+
+/* ------------------------------------------------------------------ body frame (body_frame.c) */
+
+typedef struct drv__body_frame {
+    float theta; /* radians: the person's left axis, from the camera's +X towards the camera */
+    int init;    /* a fit has been taken since the reset */
+} drv__body_frame;
+
+void drv__body_frame_reset(drv__body_frame *bf);
+/* The person's left (unit, orthogonal to up) from the torso's depth surface of g, smoothed over
+ * frames; returns 1 when this frame's torso gave it, 0 when the last one is kept. */
+int drv__body_frame_update(drv__body_frame *bf, const drv__grid *g, const float up[3],
+                           float left[3]);
+
 /* ------------------------------------------------------------------ labelling (label.c) */
 
 typedef struct drv__label_prev {
@@ -125,11 +143,13 @@ typedef struct drv__label_prev {
 } drv__label_prev;
 
 /* Assigns extrema to head/lhand/rhand/lfoot/rfoot. `up` and `right` are unit vectors of the body
- * frame (camera frame Y-up; right = the camera's +X, i.e. the left side of a person facing the
- * camera). label[i] receives the extremum index per label or -1; conf[i] in 0..1. */
+ * frame (camera frame Y-up; right = the person's left, body_frame.c: the camera's +X for a person
+ * facing the camera). label[i] receives the extremum index per label or -1; conf[i] in 0..1;
+ * side_sure[i] 0 when the hands' (feet's) sides are not certain: the best assignment with the two
+ * swapped costs less than SIDE_MARGIN more (label.c). */
 void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
                        const float right[3], const drv__label_prev *prev, int label[5],
-                       float conf[5]);
+                       float conf[5], uint8_t side_sure[5]);
 
 /* ------------------------------------------------------------------ One Euro filter (one_euro.c) */
 

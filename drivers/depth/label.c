@@ -1,11 +1,15 @@
 /* label.c - which geodesic extremum is the head, which a hand or foot, and which side.
  *
  * Each extremum e (tip position t, anchor a on its limb (geodesic.c), geodesic length
- * g) is described in the body frame at the centroid c: height h = (t - c).up, lateral offsets
- * l = (t - c).right and l_a = (a - c).right. `right` is the camera's +X, which is the left side of a
- * person facing the camera. Costs (metres scaled to "units"; lower is better):
- *   head : |l_a|/0.08 + |l|/0.15 + max(0, 0.3 - h)/0.1 + max(0, g - 1.0)/0.1   (h > 0.1, not on the border)
- *   hand : max(0, -s l_a)/0.04 + max(0, -0.6 - h)/0.1 + max(0, 0.4 - g)/0.1 + max(0, 0.15 - m)/0.1
+ * g) is described in the body frame at the centroid c: height h = (t - c).up, lateral offset
+ * l_a = (a - c).right. `right` is the person's left, across the torso's surface (body_frame.c;
+ * the camera's +X for a person facing the camera). The head is tested across the image instead:
+ * l' = (t - c).x and l'_a = (a - c).x with x the camera's +X orthogonal to up (a head is above
+ * the torso in the image however the person is turned; along a turned body's left its offset
+ * mixes in the lean towards the camera). Costs (metres scaled to "units"; lower is better):
+ *   head : |l'_a|/0.08 + |l'|/0.15 + max(0, 0.3 - h)/0.1 + max(0, g - 1.0)/0.1   (h > 0.1, not on the border)
+ *   hand : max(0, -s l_a)/0.04 + max(0, -0.6 - h)/0.1 + max(0, R - g)/0.1 + max(0, 0.15 - m)/0.1
+ *          (R = HAND_REACH: a shoulder and a forearm)
  *          (s = +1 left, -1 right; m = the highest point of its shortest path from the centroid
  *          above the centroid: an arm's path climbs to the shoulder - a leg's or a dress hem's not;
  *          the m term only for h < -0.3: a hand beside the chest needs no climb)
@@ -16,7 +20,10 @@
  *   + temporal term min(|t - p_prev|/0.1, 3) - 1 when the label had a position last frame,
  * and leaving a label empty costs MISS. The assignment (each extremum used at most once) with the
  * least total cost is found exhaustively (at most 6^5 branches, pruned by the best total so far).
- * The confidence of a label is 1 - cost/MISS, clamped to [0, 1]. */
+ * The confidence of a label is 1 - cost/MISS, clamped to [0, 1]. Sides: the hands' (feet's)
+ * labels swapped - each pair's two costs exchanged, temporal terms included - must cost at least
+ * SIDE_MARGIN more than the assignment found, otherwise the pair's side is uncertain (as a
+ * Kinect skeleton marks a joint "inferred" rather than tracked). */
 #include "depth_internal.h"
 
 #include <float.h>
@@ -28,9 +35,13 @@
 #define ARM_LOW -0.3f   /* a hand this far below the centroid (hanging, next to a dress hem) ... */
 #define ARM_CLIMB 0.15f /* ... has a path from the centroid that climbs at least this (shoulder) */
 #define LEG_CLIMB 0.15f /* ... a foot's at most this */
+#define HAND_REACH 0.65f /* a hand lies at least the centroid-to-shoulder geodesic (~0.45 m) and a
+                           forearm (~0.25 m) from the centroid: a shoulder below a raised arm cut
+                           by the image edge is no hand */
 #define NL 5
 #define MAXE (DRV_DEPTH_MAX_EXTREMA + 2)
 #define LOOP_PENALTY 2.f /* a free hand on a side whose arm closes a loop */
+#define SIDE_MARGIN 1.f  /* a side is certain when swapping the pair costs at least this more */
 
 static float dot3(const float *a, const float *b)
 {
@@ -49,6 +60,12 @@ typedef struct search {
     float best_total;
     unsigned used;
 } search;
+
+/* What label l costs with extremum e (-1: left empty). */
+static float label_cost(const search *s, int l, int e)
+{
+    return e < 0 ? MISS : fminf(s->cost[l][e], 1e6f);
+}
 
 static void dfs(search *s, int l, float total)
 {
@@ -73,10 +90,17 @@ static void dfs(search *s, int l, float total)
 
 void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
                        const float right[3], const drv__label_prev *prev, int label[5],
-                       float conf[5])
+                       float conf[5], uint8_t side_sure[5])
 {
     search s;
     s.nex = nex < MAXE ? nex : MAXE;
+    /* the head is tested across the image (the camera's +X orthogonal to up), not across the
+       body: a head is above the torso in the image however the person is turned, while its
+       offset along a turned body's left mixes in how far the person leans towards the camera */
+    float across[3] = {1.f - up[0] * up[0], -up[0] * up[1], -up[0] * up[2]};
+    const float an = sqrtf(dot3(across, across));
+    for (int a = 0; a < 3; a++)
+        across[a] /= an;
     int loop_side[2] = {0, 0};
     for (int e = 0; e < s.nex; e++)
         if (ex[e].loop)
@@ -86,9 +110,12 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
         float r[3] = {x->tip[0] - centroid[0], x->tip[1] - centroid[1], x->tip[2] - centroid[2]};
         float ra[3] = {x->anchor[0] - centroid[0], x->anchor[1] - centroid[1],
                        x->anchor[2] - centroid[2]};
-        float h = dot3(r, up), l = dot3(r, right), la = dot3(ra, right), g = x->geodesic;
+        float h = dot3(r, up), la = dot3(ra, right), g = x->geodesic;
+        /* the head: centred across the image or across the body, whichever is nearer */
+        float hl = fminf(fabsf(dot3(r, across)), fabsf(dot3(r, right)));
+        float hla = fminf(fabsf(dot3(ra, across)), fabsf(la));
         float b = x->border ? 2.f : 0.f;
-        s.cost[0][e] = h > 0.1f && !x->border ? fabsf(la) / 0.08f + fabsf(l) / 0.15f + pos(0.3f - h) / 0.1f +
+        s.cost[0][e] = h > 0.1f && !x->border ? hla / 0.08f + hl / 0.15f + pos(0.3f - h) / 0.1f +
                                       pos(g - 1.0f) / 0.1f + b
                                 : FLT_MAX;
         if (x->loop) { /* a hand on the hip, from an arm loop: that side's hand only */
@@ -99,7 +126,7 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
         for (int side = 0; side < 2; side++) {
             float sg = side == 0 ? 1.f : -1.f;
             s.cost[1 + side][e] = pos(-sg * la) / 0.04f + pos(-0.6f - h) / 0.1f +
-                                  pos(0.4f - g) / 0.1f +
+                                  pos(HAND_REACH - g) / 0.1f +
                                   (h < ARM_LOW ? pos(ARM_CLIMB - x->path_hmax) / 0.1f : 0.f) + b;
             s.cost[3 + side][e] = h < -0.55f && x->border != 1
                                       ? pos(-sg * la) / 0.04f + pos(h + 0.75f) / 0.1f +
@@ -139,5 +166,17 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
             float c = 1.f - s.cost[k][label[k]] / MISS;
             conf[k] = c < 0 ? 0 : c > 1 ? 1 : c;
         }
+    }
+    /* the sides: how much more the best assignment with the pair's labels swapped costs */
+    for (int k = 0; k < NL; k++)
+        side_sure[k] = 1;
+    for (int pair = 1; pair <= 3; pair += 2) {
+        const int a = s.best[pair], b = s.best[pair + 1];
+        if (a < 0 && b < 0)
+            continue;
+        float now = label_cost(&s, pair, a) + label_cost(&s, pair + 1, b);
+        float swapped = label_cost(&s, pair, b) + label_cost(&s, pair + 1, a);
+        if (swapped - now < SIDE_MARGIN)
+            side_sure[pair] = side_sure[pair + 1] = 0;
     }
 }

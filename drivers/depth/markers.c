@@ -5,8 +5,9 @@
  * Per frame: sample + gate -> floor plane -> nearest person -> geodesic source = the person's cell
  * nearest to its 3D centroid -> up to max_extrema extrema, plus hands estimated from arm loops
  * (segment.c) -> labels (body frame: up = the floor
- * normal when a floor was found, else the camera's +Y; right = the camera's +X made orthogonal to
- * up) -> per-label filter. A label not found keeps its last output for hold_frames frames (reported
+ * normal when a floor was found, else the camera's +Y; right = the person's left, across the
+ * torso's surface, body_frame.c) -> per-label filter. A hand or foot whose side label.c finds
+ * uncertain is filtered as found but reported not valid (side_uncertain). A label not found keeps its last output for hold_frames frames (reported
  * invalid) so that it can be re-associated; after that its filter restarts. The torso marker is the
  * person's centroid. A hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is
  * placed at the estimated hidden end. A hand from an arm loop (segment.c) is a point on the visible
@@ -25,6 +26,11 @@
 #include <string.h>
 
 #define LOOP_BEHIND 0.08f /* metres, see the header */
+/* The geodesic graph joins neighbouring cells whose depths differ by less than max_jump, or by
+ * less than this many of the Kinect's depth steps at the person's depth, whichever is more (the
+ * steps grow with the square of the depth: 1.9 cm at 2.5 m, 3.8 cm at 3.5 m; max_jump = 8 cm was
+ * chosen at 2.5 m), at most half of seg_jump. */
+#define MAX_JUMP_STEPS 3.f
 
 const char *const drv_depth_label_names[DRV_DEPTH_NLABELS] = {"head",  "lhand", "rhand",
                                                               "lfoot", "rfoot", "torso"};
@@ -39,6 +45,7 @@ struct drv_depth_tracker {
     float out[DRV_DEPTH_NLABELS][3]; /* last output */
     int missed[DRV_DEPTH_NLABELS];   /* frames since last found; > hold_frames = unknown */
     float person_z;                  /* the person's mean depth in the last frame that had one */
+    drv__body_frame bf;              /* which way the person faces */
 };
 
 void drv_depth_opts_default(drv_depth_opts *o)
@@ -123,6 +130,7 @@ void drv_depth_tracker_reset(drv_depth_tracker *t)
 {
     t->rng = t->o.seed ? t->o.seed : 1;
     t->person_z = 0;
+    drv__body_frame_reset(&t->bf);
     drv__grid_set_step(&t->g, &t->o, t->o.step);
     for (int l = 0; l < DRV_DEPTH_NLABELS; l++) {
         t->missed[l] = INT32_MAX / 2;
@@ -139,6 +147,16 @@ void drv_depth_tracker_grid(const drv_depth_tracker *t, int *step, int *gw, int 
     *gw = t->g.gw;
     *gh = t->g.gh;
     *person = t->g.person;
+}
+
+float drv__depth_max_jump(const drv_depth_opts *o, float z)
+{
+    if (!(z > 0))
+        return o->max_jump;
+    const double d = drv_kinect1_m_to_disparity(z);
+    const float q = (float)(drv_kinect1_disparity_to_m(d + 1.0) - z); /* one raw disparity step */
+    const float j = fmaxf(o->max_jump, MAX_JUMP_STEPS * q);
+    return fminf(j, 0.5f * o->seg_jump);
 }
 
 /* Puts a measurement (or its absence) for label l through the filter and the hold logic. */
@@ -199,15 +217,14 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
             src = g->cells[k];
         }
     }
-    /* body frame */
-    float right[3] = {1, 0, 0};
-    float d = right[0] * up[0] + right[1] * up[1] + right[2] * up[2];
-    for (int a = 0; a < 3; a++)
-        right[a] -= d * up[a];
-    float rn = sqrtf(right[0] * right[0] + right[1] * right[1] + right[2] * right[2]);
-    for (int a = 0; a < 3; a++)
-        right[a] /= rn;
-    int nex = drv__geodesic_extrema(&t->ge, g, &t->o, src, up, t->ex, t->o.max_extrema);
+    /* body frame: up, and the person's left from the torso's surface (body_frame.c) */
+    float right[3];
+    drv__body_frame_update(&t->bf, g, up, right);
+    memcpy(r->left, right, sizeof r->left);
+    /* the graph's depth tolerance follows the sensor's depth resolution at the person */
+    drv_depth_opts go = t->o;
+    go.max_jump = drv__depth_max_jump(&t->o, g->mean_z);
+    int nex = drv__geodesic_extrema(&t->ge, g, &go, src, up, t->ex, t->o.max_extrema);
     for (int i = 0; i < nex; i++)
         t->ex[i].loop = 0;
     nex += drv__segment_arm_loops(g, &t->o, up, right, t->ex + nex, 2);
@@ -224,7 +241,8 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     }
     int label[5];
     float conf[5];
-    drv__label_assign(t->ex, nex, g->centroid, up, right, &prev, label, conf);
+    uint8_t side_sure[5];
+    drv__label_assign(t->ex, nex, g->centroid, up, right, &prev, label, conf, side_sure);
     for (int l = 0; l < 5; l++) {
         if (label[l] >= 0) {
             if (label[l] < DRV_DEPTH_MAX_EXTREMA)
@@ -245,6 +263,10 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
             }
             emit(t, l, p, t_us, r);
             r->conf[l] = conf[l];
+            if (!side_sure[l]) { /* found, but which side is a guess: not published */
+                r->valid[l] = 0;
+                r->side_uncertain[l] = 1;
+            }
         } else {
             emit(t, l, NULL, t_us, r);
         }
