@@ -24,6 +24,7 @@
 #include "daemon_config.h"
 #include "drivers.h"
 #include "encode.h"
+#include "encode_params.h"
 #include "metrics.h"
 
 #include <pthread.h>
@@ -64,6 +65,9 @@ typedef struct srv_bundle {
     int nm;             /* model markers */
     int *map;           /* nm: the source marker feeding each model marker, or -1 */
     mdl_synth *idle;    /* the idle synthesis (a clock-driven kind of the same model), or NULL */
+    int layout_synth;   /* the params layout (gen) of synth's compact form, or -1 */
+    int layout_idle;    /* the same for idle */
+    float *prm;         /* the largest layout's floats: one frame's parameters */
     float *V;           /* nv x 3 */
     float *mk;          /* nm x 3, model marker order */
     uint8_t *mv;        /* nm */

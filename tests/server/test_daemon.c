@@ -37,6 +37,7 @@
 #include "model.h"
 #include "test.h"
 #include "wsclient.h"
+#include "params.h"
 
 #include <arpa/inet.h>
 #include <cjson/cJSON.h>
@@ -113,12 +114,12 @@ static void run_until(struct lws_context *ctx, wsc *c, uint64_t frames, int text
 /* Frames received by A (float32) and B (int16) with the same sequence number decode to the same
  * mesh within the int16 bound of PROTOCOL.md; returns how many were compared, *worst the largest
  * error as a fraction of the bound. */
-static int compare_encodings(const wsc *A, const wsc *B, double *worst)
+static int compare_encodings_as(const wsc *A, const wsc *B, int enc, double *worst)
 {
     int compared = 0;
     for (int i = 0; i < B->nframes; i++) {
         const wsc_frame *q = &B->frames[i];
-        if (q->encoding != 1)
+        if (q->encoding != enc)
             continue;
         for (int j = 0; j < A->nframes; j++) {
             const wsc_frame *p = &A->frames[j];
@@ -136,6 +137,11 @@ static int compare_encodings(const wsc *A, const wsc *B, double *worst)
         }
     }
     return compared;
+}
+
+static int compare_encodings(const wsc *A, const wsc *B, double *worst)
+{
+    return compare_encodings_as(A, B, 1, worst);
 }
 
 static void expect_str(const char *got, const char *want)
@@ -507,6 +513,78 @@ static void scenario_kinds(void)
     wsc_free(A);
     wsc_free(W);
     wsc_free(B);
+}
+
+/* ------------------------------------------------------------------ params */
+
+static size_t frame_bytes(const wsc *c, int enc, int nparams)
+{
+    size_t vb = enc == 0 ? 12 * (size_t)c->nv : enc == 1 ? 6 * (size_t)c->nv : 8 + 4 * (size_t)nparams;
+    return 56 + ((vb + 3) & ~(size_t)3) + 12 * (size_t)c->nm + (((size_t)c->nm + 3) & ~(size_t)3);
+}
+
+/* The params encoding (docs/PROTOCOL.md 2b): a client that asks for it gets the params model
+ * (MSPM) once, then encoding-2 frames which, rebuilt by clients/params.c, match the float32
+ * frames of the same sequence number within the int16 bound, for the steering model's tracked
+ * frames (layout 0) and its skin's idle frames (layout 1); a reload sends a new MSPM. */
+static void scenario_params(void)
+{
+    char model[1200], source[1200];
+    snprintf(model, sizeof model, "%s/two-kinds.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?start=170", H.dir); /* 70 frames, then idle */
+    const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0", "-v", NULL};
+    harness_start(&H, meshsteerd, args);
+    struct lws_context *ctx = wsc_context();
+    wsc *A = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *P = wsc_connect(ctx, H.port, NULL, 1);
+    wsc_send(P, "{\"type\":\"encoding\",\"encoding\":\"params\",\"id\":3}");
+    want wp = {P, 150, 0, 0, 0, 2};
+    ASSERT(wsc_run(ctx, 20000, enough, &wp));
+    ASSERT_INT_EQ(P->protocol_errors, 0);
+    ASSERT_INT_EQ(A->protocol_errors, 0);
+    ASSERT_INT_EQ(P->params_msgs, 1);
+    ASSERT(P->params);
+    ASSERT_INT_EQ(P->params->nlayouts, 2);
+    ASSERT_INT_EQ(P->params->layout[0].kind, 1); /* steer, then its idle skin */
+    ASSERT_INT_EQ(P->params->layout[1].kind, 3);
+    cJSON *h = cJSON_Parse(P->hello);
+    ASSERT(h);
+    const cJSON *pk = cJSON_GetObjectItem(cJSON_GetObjectItem(h, "model"), "params");
+    ASSERT_INT_EQ(cJSON_GetArraySize(pk), 2);
+    ASSERT_INT_EQ(cJSON_GetObjectItem(cJSON_GetArrayItem(pk, 0), "floats")->valueint,
+                  P->params->layout[0].nparams);
+    cJSON_Delete(h);
+    int tracked = 0, idle = 0;
+    for (int i = 0; i < P->nframes; i++)
+        if (P->frames[i].encoding == 2)
+            *(P->frames[i].flags & 8 ? &idle : &tracked) += 1;
+    double worst = 0;
+    int compared = compare_encodings_as(A, P, 2, &worst);
+    size_t b0 = frame_bytes(P, 0, 0), b1 = frame_bytes(P, 1, 0);
+    size_t bs = frame_bytes(P, 2, P->params->layout[0].nparams);
+    size_t bk = frame_bytes(P, 2, P->params->layout[1].nparams);
+    printf("params: %d tracked + %d idle params frames, %d compared with float32, worst %.3f of "
+           "the int16 bound; MSPM %zu bytes; bytes/frame float32 %zu, int16 %zu, params %zu (steer, "
+           "%.1fx smaller than int16), %zu (skin, %.1fx)\n",
+           tracked, idle, compared, worst, P->params_len, b0, b1, bs, (double)b1 / bs, bk,
+           (double)b1 / bk);
+    ASSERT_INT_GE(tracked, 20);
+    ASSERT_INT_GE(idle, 20);
+    ASSERT_INT_GE(compared, 40);
+    ASSERT(bs * 10 < b1);
+    /* a reload: a new hello, topology and params model, then params frames of the new generation */
+    ASSERT_INT_EQ(kill(H.pid, SIGHUP), 0);
+    want wh = {P, 0, 0, 2, 0, -1};
+    ASSERT(wsc_run(ctx, 20000, enough, &wh));
+    run_until(ctx, P, P->total_frames + 10, 0, 15000);
+    ASSERT_INT_EQ(P->params_msgs, 2);
+    ASSERT_INT_EQ(P->params->generation, P->frames[P->nframes - 1].generation);
+    ASSERT_INT_EQ(P->frames[P->nframes - 1].encoding, 2);
+    ASSERT_INT_EQ(P->protocol_errors, 0);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(A);
+    wsc_free(P);
 }
 
 /* ------------------------------------------------------------------ slow */
@@ -1547,6 +1625,8 @@ int main(int argc, char **argv)
         scenario_idle();
     else if (!strcmp(argv[3], "kinds"))
         scenario_kinds();
+    else if (!strcmp(argv[3], "params"))
+        scenario_params();
     else if (!strcmp(argv[3], "config"))
         scenario_config();
     else if (!strcmp(argv[3], "labels"))
