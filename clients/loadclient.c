@@ -16,9 +16,11 @@
  * the handshake (status 101 checked; Sec-WebSocket-Accept is not verified, this is a measuring
  * tool on a known server), the server's frames parsed as a stream by wsframe.c (payload skipped
  * in bulk, only the first 56 bytes of each message kept), pings answered, close honoured, and one
- * masked text frame sent (the encoding request). One recv of up to 1 MB per readable socket, the
+ * masked text frame sent (the encoding request). With -e params it counts params frames (and the
+ * int16 frames of a kind without a compact form) and checks that each connection got its params
+ * model (MSPM) before its first params frame; it reports the bytes per frame. One recv of up to 1 MB per readable socket, the
  * receipt time taken once per recv. No allocation after start.
- * Usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16] [-p PORT]
+ * Usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16|params] [-p PORT]
  *                       [-H HOST] [-O ORIGIN] [-j] */
 #include <errno.h>
 #include <getopt.h>
@@ -51,15 +53,18 @@ typedef struct conn {
     uint64_t t_recv; /* receipt time of the bytes being parsed */
     /* statistics */
     uint64_t first_seq, last_seq, frames, skipped;
+    int have_model; /* params: the params model (MSPM) has arrived */
 } conn;
 
 typedef struct run {
-    int want_enc; /* 0 float32, 1 int16 */
+    int want_enc; /* 0 float32, 1 int16, 2 params */
     const char *encoding;
     uint64_t t_measure;  /* frames received before this are warm-up */
     uint32_t *e2e, *srv, *syn; /* microseconds */
     size_t nlat, caplat;
     uint64_t lost_lat;   /* latencies beyond caplat (not stored) */
+    uint64_t bytes;      /* frame message bytes received while measuring */
+    uint64_t order_errors; /* params frames before their params model */
 } run;
 
 static run R;
@@ -115,12 +120,20 @@ static int fail(conn *c, const char *why)
 static void on_message(void *ud, int binary, const unsigned char *h, size_t head_len, uint64_t len)
 {
     conn *c = ud;
-    (void)len;
+    if (binary && head_len >= 4 && !memcmp(h, "MSPM", 4)) {
+        c->have_model = 1; /* the params model: parsed by clients/params.c where it is used */
+        return;
+    }
     if (!binary || head_len < HEADER || memcmp(h, "MSFR", 4))
         return; /* hello, topology, replies */
     uint64_t t = c->t_recv;
-    if (h[4] != R.want_enc || t < R.t_measure)
+    if (h[4] == 2 && !c->have_model)
+        R.order_errors++;
+    /* params: a frame of a kind without a compact form comes as int16 */
+    int ok = h[4] == R.want_enc || (R.want_enc == 2 && h[4] == 1);
+    if (!ok || t < R.t_measure)
         return; /* before the encoding switch took effect, or warm-up */
+    R.bytes += len;
     uint64_t seq = le64(h + 24), tc = le64(h + 32), tsy = le64(h + 40), ts = le64(h + 48);
     if (!c->frames)
         c->first_seq = seq;
@@ -246,10 +259,11 @@ int main(int argc, char **argv)
     while ((opt = getopt_long(argc, argv, "n:t:w:e:p:H:O:jh", longopts, NULL)) != -1) {
         switch (opt) {
         case 'h':
-            printf("usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16]\n"
+            printf("usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16|params]\n"
                    "                      [-p PORT] [-H HOST] [-O ORIGIN] [-j]\n\n"
                    "Opens CLIENTS WebSocket connections to meshsteerd (default 1, to 127.0.0.1:8080),\n"
-                   "subscribes each to the stream in the given encoding (default float32), discards\n"
+                   "subscribes each to the stream in the given encoding (default float32; params:\n"
+                   "the compact parameter stream, int16 frames where a kind has none), discards\n"
                    "the first WARMUP_S seconds (default 1), then counts frames for SECONDS (default\n"
                    "10) and prints frames per second and the capture-to-receive latency (median,\n"
                    "p99, max). -O sets the Origin header (default http://HOST:PORT); -j prints one\n"
@@ -266,7 +280,7 @@ int main(int argc, char **argv)
         case 'j': json = 1; break;
         default:
             fprintf(stderr, "usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] "
-                            "[-e float32|int16] [-p PORT] [-H HOST] [-O ORIGIN] [-j]\n");
+                            "[-e float32|int16|params] [-p PORT] [-H HOST] [-O ORIGIN] [-j]\n");
             return 2;
         }
     }
@@ -274,8 +288,8 @@ int main(int argc, char **argv)
         fprintf(stderr, "meshsteer-load: bad -n, -t, -w or -p\n");
         return 2;
     }
-    if (strcmp(R.encoding, "float32") && strcmp(R.encoding, "int16")) {
-        fprintf(stderr, "meshsteer-load: -e float32 or int16\n");
+    if (strcmp(R.encoding, "float32") && strcmp(R.encoding, "int16") && strcmp(R.encoding, "params")) {
+        fprintf(stderr, "meshsteer-load: -e float32, int16 or params\n");
         return 2;
     }
     char origin_buf[300];
@@ -283,7 +297,7 @@ int main(int argc, char **argv)
         snprintf(origin_buf, sizeof origin_buf, "http://%s:%d", host, port);
         origin = origin_buf;
     }
-    R.want_enc = !strcmp(R.encoding, "int16");
+    R.want_enc = !strcmp(R.encoding, "int16") ? 1 : !strcmp(R.encoding, "params") ? 2 : 0;
     /* room for 240 frames/s per client over the measured time */
     R.caplat = (size_t)((double)n * secs * 240) + 1024;
     R.e2e = malloc(R.caplat * sizeof *R.e2e);
@@ -363,21 +377,22 @@ int main(int argc, char **argv)
     double emax = quant(R.e2e, R.nlat, 1.0);
     double s50 = quant(R.srv, R.nlat, 0.5), s99 = quant(R.srv, R.nlat, 0.99);
     double y50 = quant(R.syn, R.nlat, 0.5), y99 = quant(R.syn, R.nlat, 0.99);
+    double bpf = frames ? (double)R.bytes / (double)frames : 0;
     if (json)
         printf("{\"clients\":%d,\"connected\":%d,\"encoding\":\"%s\",\"seconds\":%g,"
                "\"received\":%llu,\"sent\":%llu,\"skipped\":%llu,\"fps_mean\":%.2f,"
                "\"fps_min\":%.2f,\"e2e_p50_ms\":%.3f,\"e2e_p99_ms\":%.3f,\"e2e_max_ms\":%.3f,"
                "\"server_p50_ms\":%.3f,\"server_p99_ms\":%.3f,\"synth_p50_ms\":%.3f,"
-               "\"synth_p99_ms\":%.3f}\n",
+               "\"synth_p99_ms\":%.3f,\"bytes_per_frame\":%.1f}\n",
                n, up, R.encoding, secs, (unsigned long long)frames, (unsigned long long)sent,
-               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99, y50, y99);
+               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99, y50, y99, bpf);
     else
         printf("clients %d (connected %d) encoding %s, %.1f s: frames received %llu of %llu sent "
                "(%.2f%%), skipped %llu, %.1f frames/s per client (slowest %.1f); end-to-end p50 "
                "%.2f ms p99 %.2f ms max %.2f ms; capture->send p50 %.2f ms p99 %.2f ms; "
-               "capture->synthesised p50 %.2f ms p99 %.2f ms\n",
+               "capture->synthesised p50 %.2f ms p99 %.2f ms; %.0f bytes/frame\n",
                n, up, R.encoding, secs, (unsigned long long)frames, (unsigned long long)sent, pct,
-               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99, y50, y99);
+               (unsigned long long)skipped, fps, fps_min, e50, e99, emax, s50, s99, y50, y99, bpf);
     if (R.lost_lat)
         fprintf(stderr, "meshsteer-load: %llu latencies not stored (more frames than expected)\n",
                 (unsigned long long)R.lost_lat);
@@ -388,5 +403,8 @@ int main(int argc, char **argv)
     free(R.e2e);
     free(R.srv);
     free(R.syn);
-    return up == n && opened == n ? 0 : 1;
+    if (R.order_errors)
+        fprintf(stderr, "meshsteer-load: %llu params frames came before their params model\n",
+                (unsigned long long)R.order_errors);
+    return up == n && opened == n && !R.order_errors ? 0 : 1;
 }

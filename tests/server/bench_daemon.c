@@ -4,8 +4,9 @@
  *   end-to-end latency (capture -> receipt) p50/p99, frames received vs sent, frames/s per client,
  *   the daemon's capture -> send latency, from the frames' stamps and from /metrics (the
  *   histogram's change over the row, as bucket bounds);
- * then the largest client count at which every int16 client still gets 60 fps (>= 95 % of the
- * source's frames), searched upwards.
+ * then the largest client count at which every client still gets 60 fps (>= 95 % of the
+ * source's frames), searched upwards, for int16 and for the params encoding (the compact
+ * parameter stream: docs/PROTOCOL.md 2b) in the same run; every row gives the bytes per frame.
  * Usage: bench_daemon MESHSTEERD MESHSTEER MESHSTEER_LOAD [SECONDS_PER_ROW] [MAX_CLIENTS_TRIED]
  *                     [fifo]
  * With "fifo" the daemon and the load client run under SCHED_FIFO priority 10 (both inherit it
@@ -116,9 +117,10 @@ static void print_row(const row *r)
 {
     const cJSON *j = r->j;
     double recv = num(j, "received"), sent = num(j, "sent");
-    printf("| %d | %s | %.0f / %.0f (%.1f %%) | %.1f (slowest %.1f) | %.2f ms | %.2f ms | "
+    printf("| %d | %s | %.0f | %.0f / %.0f (%.1f %%) | %.1f (slowest %.1f) | %.2f ms | %.2f ms | "
            "%.2f / %.2f ms | <= %g / <= %g ms | %.0f |\n",
-           r->clients, r->enc, recv, sent, sent > 0 ? 100 * recv / sent : 0, num(j, "fps_mean"),
+           r->clients, r->enc, num(j, "bytes_per_frame"), recv, sent,
+           sent > 0 ? 100 * recv / sent : 0, num(j, "fps_mean"),
            num(j, "fps_min"), num(j, "e2e_p50_ms"), num(j, "e2e_p99_ms"), num(j, "server_p50_ms"),
            num(j, "server_p99_ms"), r->m50, r->m99, r->synth_busy);
     fflush(stdout);
@@ -127,6 +129,28 @@ static void print_row(const row *r)
 static int holds_60(const row *r)
 {
     return num(r->j, "connected") == r->clients && num(r->j, "fps_min") >= 0.95 * 60;
+}
+
+/* The largest client count of `enc` that holds 60 fps, searched upwards from `from` (which held
+ * it, or 0 if it did not). */
+static int largest_holding(const char *load, const char *enc, int from, double secs, int max_tried)
+{
+    static const int steps[] = {96, 128, 160, 192, 256, 320, 384, 448, 512, 640, 768, 1024,
+                                1280, 1536, 2048};
+    int best = from;
+    for (size_t k = 0; best > 0 && k < sizeof steps / sizeof steps[0]; k++) {
+        if (steps[k] > max_tried)
+            break;
+        row r = {steps[k], enc, NULL, 0, 0, 0};
+        run_row(load, &r, secs);
+        print_row(&r);
+        int ok = holds_60(&r);
+        cJSON_Delete(r.j);
+        if (!ok)
+            break;
+        best = steps[k];
+    }
+    return best;
 }
 
 int main(int argc, char **argv)
@@ -184,38 +208,33 @@ int main(int argc, char **argv)
            "%ld CPUs, load average %.2f at start; scheduling %s\n\n",
            secs, sysconf(_SC_NPROCESSORS_ONLN), load1,
            fifo ? "SCHED_FIFO 10 (daemon and load client)" : "default (SCHED_OTHER)");
-    printf("| clients | encoding | received / sent | frames/s per client | e2e p50 | e2e p99 | "
-           "capture->send p50 / p99 (frames) | capture->send p50 / p99 (/metrics) | "
-           "synth_busy drops |\n|---:|---|---|---|---:|---:|---|---|---:|\n");
-    row rows[4] = {{1, "int16", NULL, 0, 0, 0}, {1, "float32", NULL, 0, 0, 0},
-                   {64, "int16", NULL, 0, 0, 0}, {64, "float32", NULL, 0, 0, 0}};
-    for (int i = 0; i < 4; i++) {
+    printf("| clients | encoding | bytes/frame | received / sent | frames/s per client | e2e p50 | "
+           "e2e p99 | capture->send p50 / p99 (frames) | capture->send p50 / p99 (/metrics) | "
+           "synth_busy drops |\n|---:|---|---:|---|---|---:|---:|---|---|---:|\n");
+    enum { NROWS = 6 };
+    row rows[NROWS] = {{1, "int16", NULL, 0, 0, 0},  {1, "float32", NULL, 0, 0, 0},
+                       {1, "params", NULL, 0, 0, 0}, {64, "int16", NULL, 0, 0, 0},
+                       {64, "float32", NULL, 0, 0, 0}, {64, "params", NULL, 0, 0, 0}};
+    for (int i = 0; i < NROWS; i++) {
         run_row(load, &rows[i], secs);
         print_row(&rows[i]);
     }
-    /* the largest int16 client count that holds 60 fps */
-    int best = holds_60(&rows[2]) ? 64 : 0;
-    static const int steps[] = {96, 128, 160, 192, 256, 320, 384, 448, 512, 640, 768, 1024};
-    for (size_t k = 0; best > 0 && k < sizeof steps / sizeof steps[0]; k++) {
-        if (steps[k] > max_tried)
-            break;
-        row r = {steps[k], "int16", NULL, 0, 0, 0};
-        run_row(load, &r, secs);
-        print_row(&r);
-        int ok = holds_60(&r);
-        cJSON_Delete(r.j);
-        if (!ok)
-            break;
-        best = steps[k];
-    }
+    /* the largest client counts that hold 60 fps, int16 then params */
+    int best = largest_holding(load, "int16", holds_60(&rows[3]) ? 64 : 0, secs, max_tried);
+    int best_p = largest_holding(load, "params", holds_60(&rows[5]) ? 64 : 0, secs, max_tried);
     printf("\nlargest int16 client count holding 60 fps (every client >= 57 frames/s): %d%s\n",
            best, best >= max_tried ? " (the largest tried)" : "");
-    double p99_1 = num(rows[0].j, "e2e_p99_ms"), p99_64 = num(rows[2].j, "e2e_p99_ms");
+    printf("largest params client count holding 60 fps (every client >= 57 frames/s): %d%s\n",
+           best_p, best_p >= max_tried ? " (the largest tried)" : "");
+    double bi = num(rows[0].j, "bytes_per_frame"), bp = num(rows[2].j, "bytes_per_frame");
+    printf("bytes per frame: int16 %.0f, params %.0f: %.1fx smaller (goal >= 20x: %s)\n", bi, bp,
+           bp > 0 ? bi / bp : 0, bp > 0 && bi / bp >= 20 ? "met" : "not met");
+    double p99_1 = num(rows[0].j, "e2e_p99_ms"), p99_64 = num(rows[3].j, "e2e_p99_ms");
     printf("goal p99 < 5 ms with 1 client (int16): %.2f ms, %s\n", p99_1,
            p99_1 < 5 ? "met" : "not met");
     printf("goal p99 < 20 ms with 64 clients (int16): %.2f ms, %s\n", p99_64,
            p99_64 < 20 ? "met" : "not met");
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < NROWS; i++)
         cJSON_Delete(rows[i].j);
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 10000), 0);
     char cmd[1200];
