@@ -9,6 +9,7 @@
 import * as THREE from './node_modules/three/build/three.module.js';
 import { Orbit } from './orbit.js';
 import * as P from './protocol.js';
+import * as PP from './params.js';
 
 const params = new URLSearchParams(location.search);
 const stats = {
@@ -18,7 +19,9 @@ const stats = {
   dropped: 0,         // skipped by the server (slow link) + replaced before they were drawn
   errors: 0, lastError: '',
   latencyMs: NaN,     // capture -> on screen, smoothed; NaN until the clock offset is known
-  fps: 0, generation: 0, encoding: params.get('encoding') === 'int16' ? 'int16' : 'float32',
+  fps: 0, generation: 0,
+  encoding: ['int16', 'params'].includes(params.get('encoding')) ? params.get('encoding') : 'float32',
+  paramsModels: 0, paramsFrames: 0, // params models (MSPM) and params frames received
   nv: 0, nf: 0, nm: 0, lastSeq: 0, lastCaptureUs: 0, model: '',
   bound: 0,           // model markers bound to a live label (hello markers[].bound)
   controls: [],       // the source controls the hello offers (source.controls)
@@ -78,14 +81,25 @@ const orbit = new Orbit(camera, renderer.domElement, () => { dirty = true; });
 orbit.update();
 
 let mesh = null, points = null, topo = null;
+let baseMaterial = null, paramsModel = null, paramsMesh = null; // params.js: the GPU rebuild
+let paramsSeq = 0, paramsLayout = -1; // the newest params frame decoded into paramsModel
+// tests: the positions the params shader gives for the newest params frame (transform feedback)
+window.meshsteerParams = {
+  snapshot: () => paramsModel && paramsLayout >= 0
+    ? { seq: paramsSeq, layout: paramsLayout, kind: paramsModel.layouts[paramsLayout].kind,
+        V: Array.from(PP.readback(paramsModel, paramsLayout)) } : null,
+  material: () => Boolean(mesh && paramsMesh && paramsMesh.layouts.some(x => x.material === mesh.material)),
+};
 const decoded = { V: null, markers: null, valid: null };
 let pending = null; // newest decoded frame header not yet drawn
 
 const partsBox = document.getElementById('c-parts');
 const markersBox = document.getElementById('c-markers');
 const int16Box = document.getElementById('c-int16');
+const paramsBox = document.getElementById('c-params');
 const groundBox = document.getElementById('c-ground');
 int16Box.checked = stats.encoding === 'int16';
+paramsBox.checked = stats.encoding === 'params';
 
 function partColours(parts, nparts) {
   const c = new Float32Array(parts.length * 3), col = new THREE.Color();
@@ -109,6 +123,7 @@ function buildMesh(t) {
   g.computeBoundingSphere();
   const mat = new THREE.MeshStandardMaterial({ color: 0xc9b79c, roughness: 0.6, metalness: 0.0,
                                                vertexColors: partsBox.checked, side: THREE.DoubleSide });
+  baseMaterial = mat;
   mesh = new THREE.Mesh(g, mat);
   mesh.frustumCulled = false;
   mesh.castShadow = true;
@@ -199,14 +214,19 @@ function normals(g) {
 }
 
 partsBox.addEventListener('change', () => {
-  if (mesh) { mesh.material.vertexColors = partsBox.checked; mesh.material.needsUpdate = true; dirty = true; }
+  const mats = [baseMaterial, ...(paramsMesh ? paramsMesh.layouts.map(x => x.material) : [])];
+  for (const m of mats) if (m) { m.vertexColors = partsBox.checked; m.needsUpdate = true; }
+  dirty = true;
 });
 groundBox.addEventListener('change', () => { ground.visible = groundBox.checked; dirty = true; });
 markersBox.addEventListener('change', () => { if (points) { points.visible = markersBox.checked; dirty = true; } });
-int16Box.addEventListener('change', () => {
-  stats.encoding = int16Box.checked ? 'int16' : 'float32';
+function chooseEncoding(box) {
+  if (box.checked) (box === int16Box ? paramsBox : int16Box).checked = false;
+  stats.encoding = paramsBox.checked ? 'params' : int16Box.checked ? 'int16' : 'float32';
   send({ type: 'encoding', encoding: stats.encoding });
-});
+}
+int16Box.addEventListener('change', () => chooseEncoding(int16Box));
+paramsBox.addEventListener('change', () => chooseEncoding(paramsBox));
 
 // ---- clock: map performance.now() (ms) to the server's CLOCK_MONOTONIC (us) with ping/pong,
 // keeping the sample with the smallest round trip
@@ -307,9 +327,25 @@ function onBinary(buf) {
     topo = P.decodeTopology(buf);
     stats.topologies++;
     stats.nv = topo.nv; stats.nf = topo.nf;
+    if (paramsMesh) paramsMesh.dispose();
+    paramsMesh = paramsModel = null; // the new generation's params model follows, if asked for
+    paramsLayout = -1;
     buildMesh(topo);
+  } else if (PP.isParamsModel(buf) && topo) {
+    paramsModel = PP.decodeParamsModel(buf);
+    if (paramsModel.nv !== topo.nv) throw new Error('params model does not match the topology');
+    if (paramsMesh) paramsMesh.dispose();
+    paramsMesh = new PP.ParamsMesh(THREE, paramsModel, baseMaterial);
+    paramsLayout = -1;
+    stats.paramsModels++;
   } else if (k === 'frame' && topo) {
     const h = P.decodeFrame(buf, topo, decoded);
+    if (h.encoding === PP.ENC_PARAMS) {
+      h.layout = PP.decodeParamsBlock(new DataView(buf), paramsModel);
+      paramsSeq = h.seq;
+      paramsLayout = h.layout;
+      stats.paramsFrames++;
+    }
     stats.frames++;
     stats.dropped += h.skipped;
     if (pending) stats.dropped++; // replaced before it was drawn
@@ -339,10 +375,19 @@ let fpsCount = 0, fpsT0 = performance.now();
 function draw() {
   requestAnimationFrame(draw);
   if (pending && mesh) {
-    const pos = mesh.geometry.attributes.position;
-    pos.array.set(decoded.V);
-    pos.needsUpdate = true;
-    normals(mesh.geometry);
+    if (pending.encoding === PP.ENC_PARAMS) { // the vertex shader rebuilds the mesh
+      const x = paramsMesh.layouts[pending.layout];
+      paramsMesh.update(pending.layout);
+      mesh.material = x.material;
+      mesh.customDepthMaterial = x.depth;
+    } else {
+      mesh.material = baseMaterial;
+      mesh.customDepthMaterial = undefined;
+      const pos = mesh.geometry.attributes.position;
+      pos.array.set(decoded.V);
+      pos.needsUpdate = true;
+      normals(mesh.geometry);
+    }
     const mp = points.geometry.attributes.position;
     let n = 0;
     for (let i = 0; i < topo.nm; i++)

@@ -1,0 +1,109 @@
+// params.mjs - the params encoding's GPU reconstruction in headless Chromium (playwright-core):
+// the viewer, opened with ?encoding=params, draws params frames with its vertex shader
+// (clients/web/params.js); meanwhile the page also subscribes to float32 frames on a second
+// WebSocket. For params frames of both kinds (the steering model while the replay plays, its skin
+// once the replay has ended and the idle animation runs), the shader's positions read back by
+// transform feedback (window.meshsteerParams.snapshot) must equal the float32 frame of the same
+// sequence number within the int16 bound of docs/PROTOCOL.md on every axis of every vertex.
+// Usage: node params.mjs URL SCREENSHOT.png     (exit 77 = skip when chromium or playwright is absent)
+import { existsSync, mkdtempSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { createRequire } from 'node:module';
+
+const [url, shot] = process.argv.slice(2);
+const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
+if (!existsSync(chromium)) { console.error(`skip: ${chromium} not installed`); process.exit(77); }
+const require = createRequire(process.env.MESHSTEER_WEB_DIR + '/package.json');
+let pw;
+try { pw = require('playwright-core'); } catch (e) { console.error('skip: playwright-core not installed'); process.exit(77); }
+const profile = mkdtempSync(join(tmpdir(), 'meshsteer-chromium-'));
+const browser = await pw.chromium.launchPersistentContext(profile, {
+  executablePath: chromium, headless: true, viewport: { width: 640, height: 480 }, bypassCSP: true,
+  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
+         '--disable-component-update', '--disable-sync', '--no-first-run', '--disable-quic',
+         '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+});
+let failed = false;
+const fail = msg => { console.error('FAIL: ' + msg); failed = true; };
+try {
+  const page = browser.pages()[0] || await browser.newPage();
+  page.on('pageerror', e => fail(`page error: ${e}`));
+  await page.goto(url);
+  await page.waitForFunction(() => window.meshsteer.paramsFrames > 3 && window.meshsteerParams.material(),
+                             null, { timeout: 30000 });
+  // the float32 stream of the same daemon, kept by sequence number (the newest 600)
+  await page.evaluate(async () => {
+    const P = await import('/protocol.js');
+    const ws = new WebSocket(`ws://${location.host}/stream`, 'meshsteer.v1');
+    ws.binaryType = 'arraybuffer';
+    let topo = null;
+    window.f32 = new Map();
+    ws.onmessage = ev => {
+      if (typeof ev.data === 'string') return;
+      const k = P.kind(ev.data);
+      if (k === 'topology') topo = P.decodeTopology(ev.data);
+      else if (k === 'frame' && topo) {
+        const out = { V: new Float32Array(topo.nv * 3), markers: new Float32Array(topo.nm * 3),
+                      valid: new Uint8Array(topo.nm) };
+        const h = P.decodeFrame(ev.data, topo, out);
+        window.f32.set(h.seq, { V: out.V, flags: h.flags });
+        if (window.f32.size > 600) window.f32.delete(window.f32.keys().next().value);
+      }
+    };
+    window.f32topo = () => topo;
+  });
+  const checked = { 1: 0, 3: 0 }; // by layout kind: steer, skin
+  let worst = 0;
+  const t0 = Date.now();
+  while ((checked[1] < 3 || checked[3] < 3) && Date.now() - t0 < 60000) {
+    const snap = await page.evaluate(() => window.meshsteerParams.snapshot());
+    if (!snap || checked[snap.kind] >= 3) { await page.waitForTimeout(200); continue; }
+    await page.waitForTimeout(600); // the float32 frame of that sequence number arrives meanwhile
+    const r = await page.evaluate(s => {
+      const f = window.f32.get(s.seq), t = window.f32topo();
+      if (!f || !t) return null;
+      let worst = 0, at = -1, bad = 0;
+      for (let i = 0; i < s.V.length; i++) {
+        const a = i % 3, bound = (t.qmax[a] - t.qmin[a]) / 131070 * 1.0001 + 1e-6;
+        const d = Math.abs(s.V[i] - f.V[i]) / bound;
+        if (!(d <= 1)) bad++;
+        if (!(d <= worst)) { worst = d; at = i; }
+      }
+      return { worst, at, bad, n: s.V.length / 3, idle: (f.flags & 8) !== 0 };
+    }, snap);
+    if (!r) continue; // that frame was skipped on the float32 side: take another
+    console.log(`seq ${snap.seq} layout ${snap.layout} (${snap.kind === 1 ? 'steer' : 'skin'}${r.idle ? ', idle' : ''}): ` +
+                `${r.n} vertices, worst ${r.worst.toFixed(3)} of the int16 bound (coordinate ${r.at}), ${r.bad} outside`);
+    if (r.bad) fail(`seq ${snap.seq}: ${r.bad} coordinates outside the int16 bound (worst ${r.worst})`);
+    if ((snap.kind === 3) !== r.idle) fail(`seq ${snap.seq}: layout kind ${snap.kind} but idle flag ${r.idle}`);
+    worst = Math.max(worst, r.worst);
+    checked[snap.kind]++;
+  }
+  if (checked[1] < 3 || checked[3] < 3) fail(`compared ${checked[1]} steer and ${checked[3]} skin frames, want 3 each`);
+  const st = await page.evaluate(() => window.meshsteer);
+  console.log(`params: ${st.paramsModels} params model(s), ${st.paramsFrames} params frames, ${st.rendered} drawn, ` +
+              `${st.errors} errors${st.lastError ? ' (' + st.lastError + ')' : ''}; worst ${worst.toFixed(3)} of the bound`);
+  if (st.errors) fail(`viewer errors: ${st.lastError}`);
+  if (st.paramsModels < 1 || st.rendered < 10) fail('the viewer drew too few params frames');
+  // the canvas is not blank: the shader's mesh is on screen
+  await page.screenshot({ path: shot });
+  const lit = await page.evaluate(() => {
+    const c = document.querySelector('#view canvas'), g = document.createElement('canvas');
+    g.width = c.width; g.height = c.height;
+    const x = g.getContext('2d');
+    x.drawImage(c, 0, 0);
+    const d = x.getImageData(0, 0, g.width, g.height).data;
+    let n = 0;
+    for (let i = 0; i < d.length; i += 4) if (d[i] > 120 && d[i + 1] > 100) n++; // the mesh's tan
+    return n / (d.length / 4);
+  });
+  console.log(`mesh pixels: ${(100 * lit).toFixed(1)} % of the canvas`);
+  if (!(lit > 0.005)) fail('the params mesh is not on screen');
+} catch (e) {
+  fail(String(e && e.stack || e));
+} finally {
+  await browser.close();
+  rmSync(profile, { recursive: true, force: true });
+}
+process.exit(failed ? 1 : 0);

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# run_params.sh - the params encoding in a real browser: meshsteerd streams the example's steering
+# model (then, when its replay ends, the skin beside it as the idle animation) and params.mjs
+# checks in headless Chromium that the viewer's vertex shader, read back by transform feedback,
+# gives the daemon's own float32 vertices within the int16 bound, for both kinds.
+# Usage: run_params.sh MESHSTEERD MAKE_MODEL SCREENSHOT.png        Exit 77 = skipped.
+set -euo pipefail
+meshsteerd=$1 make_model=$2 shot=$3
+here=$(cd "$(dirname "$0")" && pwd)
+web=${MESHSTEER_SRC:-$here/../../..}/clients/web
+command -v node >/dev/null || { echo "skip: node not installed"; exit 77; }
+[ -x "${CHROMIUM:-/usr/bin/chromium}" ] || { echo "skip: chromium not installed"; exit 77; }
+[ -f "$web/node_modules/three/build/three.module.js" ] && [ -d "$web/node_modules/playwright-core" ] ||
+    { echo "skip: run 'npm ci' in clients/web (scripts/run.sh does)"; exit 77; }
+dir=$(mktemp -d "${MESHSTEER_BUILD:-/tmp}/e2e-params-XXXXXX")
+pid=
+cleanup() {
+    [ -n "$pid" ] && kill "$pid" 2>/dev/null || true
+    sleep 0.2
+    rm -rf "$dir"
+}
+trap cleanup EXIT
+"$make_model" "$dir" >/dev/null
+# 240 tracked frames at half speed (16 s), then the source ends and the skin takes over
+"$meshsteerd" --model "$dir/two-kinds.msm" --source "replay:$dir/trot.csv?speed=0.5" \
+    --listen 127.0.0.1:0 --web-root "$web" 2>"$dir/log" </dev/null >/dev/null &
+pid=$!
+port=
+for _ in $(seq 100); do
+    port=$(sed -n 's|.*listening on http://127.0.0.1:\([0-9]*\)/.*|\1|p' "$dir/log")
+    [ -n "$port" ] && break
+    sleep 0.1
+done
+[ -n "$port" ] || { cat "$dir/log" >&2; exit 1; }
+export MESHSTEER_WEB_DIR=$web
+node "$here/params.mjs" "http://127.0.0.1:$port/?encoding=params" "$shot"
