@@ -4,8 +4,8 @@
 //   V_v = sum_s w_vs (R(q_i) (mean_e + sum_a lambda_ia scale_a mode_a[e]) + t_i)
 // (Voegele et al. 2012 Sec. 4.4 eq. 6 and Sec. 5.3 eq. 8: rigidly placed part shapes, blended;
 // for a skin, linear blend skinning). No per-vertex work on the CPU per frame: decoding a frame
-// copies ninst x (7 + k) floats. The same GLSL (RECONSTRUCT_GLSL) is what the viewer's material
-// runs and what readback() runs with transform feedback, so a test can read the positions back.
+// copies ninst x (7 + k) floats. The same GLSL (RECONSTRUCT_GLSL) is what the viewer's position
+// pass runs and what readback() runs with transform feedback, so a test can read it back.
 
 export const ENC_PARAMS = 2;
 const TEX_W = 1024; // texels per row of every data texture
@@ -164,57 +164,150 @@ function padded(arr, texels) {
   return out;
 }
 
-// three.js side: one material (and a matching depth material for the shadow) per layout, each
-// the viewer's MeshStandardMaterial with its vertex position replaced by msReconstruct; normals
-// come from the screen-space derivatives of the position (flatShading), as there are no CPU
-// normals. update(l) uploads the parameter texture of layout l after decodeParamsBlock.
+// three.js side. Two passes per params frame, both on the GPU:
+//   1. positions: a full-screen pass writes msReconstruct(i) of every vertex i into a float
+//      render target (one texel per vertex), with the frame's layout's textures;
+//   2. the mesh: the viewer's MeshStandardMaterial (and a depth material for the shadow) with its
+//      position and normal replaced by texture fetches: the position of vertex gl_VertexID, and
+//      its smooth normal, the area-weighted sum of the normals of the triangles around it (around
+//      every copy of its rest position, as viewer.js's CPU normals), from a texture of incident
+//      triangles built once per topology.
+// update(l) uploads layout l's parameters (after decodeParamsBlock) and runs pass 1.
 export class ParamsMesh {
-  constructor(THREE, model, baseMaterial) {
+  constructor(THREE, model, baseMaterial, faces, rep) {
     this.THREE = THREE;
     this.model = model;
+    const nv = model.nv;
+    const tex = (arr, texels) => {
+      const [w, h] = texSize(texels);
+      const t = new THREE.DataTexture(padded(arr, texels), w, h, THREE.RGBAFormat, THREE.FloatType);
+      t.minFilter = t.magFilter = THREE.NearestFilter;
+      t.needsUpdate = true;
+      return t;
+    };
+    const [pw, ph] = texSize(nv);
+    this.target = new THREE.WebGLRenderTarget(pw, ph, {
+      type: THREE.FloatType, format: THREE.RGBAFormat, minFilter: THREE.NearestFilter,
+      magFilter: THREE.NearestFilter, depthBuffer: false, stencilBuffer: false, generateMipmaps: false });
+    this.camera = new THREE.Camera();
+    this.quad = new THREE.Mesh(new THREE.PlaneGeometry(2, 2));
+    this.quad.frustumCulled = false;
+    this.scene = new THREE.Scene();
+    this.scene.add(this.quad);
     this.layouts = model.layouts.map(L => {
-      const tex = (arr, texels) => {
-        const [w, h] = texSize(texels);
-        const t = new THREE.DataTexture(padded(arr, texels), w, h, THREE.RGBAFormat, THREE.FloatType);
-        t.minFilter = t.magFilter = THREE.NearestFilter;
-        t.needsUpdate = true;
-        return t;
-      };
       L.paramTex = padded(L.paramTex, L.ninst * L.stride);
       const uniforms = {
-        msSlots: { value: tex(L.slotTex, model.nv * L.slots) },
+        msSlots: { value: tex(L.slotTex, nv * L.slots) },
         msMeans: { value: tex(L.means, L.nentries) },
         msModes: { value: tex(L.modes, L.modes.length / 4) },
         msParams: { value: tex(L.paramTex, L.ninst * L.stride) },
         msSlotsPer: { value: L.slots },
         msStride: { value: L.stride },
+        msCount: { value: nv },
       };
-      const patch = mat => {
-        mat.onBeforeCompile = shader => {
-          Object.assign(shader.uniforms, uniforms);
-          shader.vertexShader = RECONSTRUCT_GLSL + shader.vertexShader.replace(
-            '#include <begin_vertex>', 'vec3 transformed = msReconstruct(gl_VertexID);');
-        };
-        mat.customProgramCacheKey = () => 'meshsteer-params';
-        return mat;
-      };
-      const material = patch(baseMaterial.clone());
-      material.flatShading = true;
-      const depth = patch(new THREE.MeshDepthMaterial({ depthPacking: THREE.RGBADepthPacking }));
-      return { L, uniforms, material, depth };
+      const pass = new THREE.RawShaderMaterial({
+        glslVersion: THREE.GLSL3, uniforms, depthTest: false, depthWrite: false,
+        vertexShader: `precision highp float;
+in vec3 position;
+void main() { gl_Position = vec4(position.xy, 0.0, 1.0); }`,
+        fragmentShader: `precision highp float;
+precision highp int;
+${RECONSTRUCT_GLSL}
+uniform int msCount;
+out vec4 msColor;
+void main() {
+  int i = int(gl_FragCoord.y) * ${TEX_W} + int(gl_FragCoord.x);
+  msColor = i < msCount ? vec4(msReconstruct(i), 1.0) : vec4(0.0);
+}` });
+      return { L, uniforms, pass };
     });
+    // incident triangles per copy group: (the two other corners in winding order) per texel, and
+    // per vertex (first texel, count) of its group
+    const groups = new Map();
+    for (let f = 0; f < faces.length; f += 3)
+      for (let c = 0; c < 3; c++) {
+        const g = rep ? rep[faces[f + c]] : faces[f + c];
+        if (!groups.has(g)) groups.set(g, []);
+        groups.get(g).push(faces[f + (c + 1) % 3], faces[f + (c + 2) % 3]);
+      }
+    const inc = new Float32Array(4 * Math.max(1, faces.length)), ring = new Float32Array(4 * nv);
+    const first = new Map();
+    let at = 0;
+    for (const [g, list] of groups) {
+      first.set(g, [at, list.length / 2]);
+      for (let k = 0; k < list.length; k += 2, at++) { inc[4 * at] = list[k]; inc[4 * at + 1] = list[k + 1]; }
+    }
+    for (let v = 0; v < nv; v++) {
+      const r = first.get(rep ? rep[v] : v) || [0, 0];
+      ring[4 * v] = r[0]; ring[4 * v + 1] = r[1];
+    }
+    const shared = {
+      msPos: { value: this.target.texture },
+      msInc: { value: tex(inc, Math.max(1, faces.length)) },
+      msRing: { value: tex(ring, nv) },
+    };
+    this.shared = shared;
+    const fetchGLSL = `
+uniform highp sampler2D msPos;
+uniform highp sampler2D msInc;
+uniform highp sampler2D msRing;
+highp vec4 msGet(highp sampler2D t, int i) {
+  int w = textureSize(t, 0).x;
+  return texelFetch(t, ivec2(i % w, i / w), 0);
+}
+highp vec3 msNormal(int v) {
+  highp vec3 p = msGet(msPos, v).xyz, n = vec3(0.0);
+  highp vec4 r = msGet(msRing, v);
+  for (int k = 0; k < int(r.y); k++) {
+    highp vec4 bc = msGet(msInc, int(r.x) + k);
+    n += cross(msGet(msPos, int(bc.x)).xyz - p, msGet(msPos, int(bc.y)).xyz - p);
   }
-  update(l) {
-    const t = this.layouts[l].uniforms.msParams.value;
-    t.image.data.set(this.layouts[l].L.paramTex);
+  return normalize(n);
+}
+`;
+    const patch = mat => {
+      mat.onBeforeCompile = shader => {
+        Object.assign(shader.uniforms, shared);
+        shader.vertexShader = fetchGLSL + shader.vertexShader
+          .replace('#include <beginnormal_vertex>', 'vec3 objectNormal = msNormal(gl_VertexID);')
+          .replace('#include <begin_vertex>', 'vec3 transformed = msGet(msPos, gl_VertexID).xyz;');
+      };
+      mat.customProgramCacheKey = () => 'meshsteer-params';
+      return mat;
+    };
+    this.material = patch(baseMaterial.clone());
+    this.depth = patch(new THREE.MeshDepthMaterial({ depthPacking: THREE.RGBADepthPacking }));
+  }
+  update(renderer, l) {
+    const x = this.layouts[l], t = x.uniforms.msParams.value;
+    t.image.data.set(x.L.paramTex);
     t.needsUpdate = true;
+    this.quad.material = x.pass;
+    const prev = renderer.getRenderTarget();
+    renderer.setRenderTarget(this.target);
+    renderer.render(this.scene, this.camera);
+    renderer.setRenderTarget(prev);
+  }
+  // tests: the positions pass 1 wrote for the last update (what the mesh is drawn from)
+  positions(renderer) {
+    const { width, height } = this.target;
+    const px = new Float32Array(4 * width * height), V = new Float32Array(3 * this.model.nv);
+    renderer.readRenderTargetPixels(this.target, 0, 0, width, height, px);
+    for (let i = 0; i < this.model.nv; i++)
+      for (let c = 0; c < 3; c++) V[3 * i + c] = px[4 * i + c];
+    return V;
   }
   dispose() {
     for (const x of this.layouts) {
       for (const k of ['msSlots', 'msMeans', 'msModes', 'msParams']) x.uniforms[k].value.dispose();
-      x.material.dispose();
-      x.depth.dispose();
+      x.pass.dispose();
     }
+    this.shared.msInc.value.dispose();
+    this.shared.msRing.value.dispose();
+    this.target.dispose();
+    this.quad.geometry.dispose();
+    this.material.dispose();
+    this.depth.dispose();
   }
 }
 

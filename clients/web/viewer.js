@@ -88,7 +88,9 @@ window.meshsteerParams = {
   snapshot: () => paramsModel && paramsLayout >= 0
     ? { seq: paramsSeq, layout: paramsLayout, kind: paramsModel.layouts[paramsLayout].kind,
         V: Array.from(PP.readback(paramsModel, paramsLayout)) } : null,
-  material: () => Boolean(mesh && paramsMesh && paramsMesh.layouts.some(x => x.material === mesh.material)),
+  material: () => Boolean(mesh && paramsMesh && mesh.material === paramsMesh.material),
+  positions: () => paramsMesh ? Array.from(paramsMesh.positions(renderer)) : null, // what is drawn
+  drawnSeq: 0, // the params frame those positions are of
 };
 const decoded = { V: null, markers: null, valid: null };
 let pending = null; // newest decoded frame header not yet drawn
@@ -214,7 +216,7 @@ function normals(g) {
 }
 
 partsBox.addEventListener('change', () => {
-  const mats = [baseMaterial, ...(paramsMesh ? paramsMesh.layouts.map(x => x.material) : [])];
+  const mats = [baseMaterial, paramsMesh && paramsMesh.material];
   for (const m of mats) if (m) { m.vertexColors = partsBox.checked; m.needsUpdate = true; }
   dirty = true;
 });
@@ -335,7 +337,9 @@ function onBinary(buf) {
     paramsModel = PP.decodeParamsModel(buf);
     if (paramsModel.nv !== topo.nv) throw new Error('params model does not match the topology');
     if (paramsMesh) paramsMesh.dispose();
-    paramsMesh = new PP.ParamsMesh(THREE, paramsModel, baseMaterial);
+    const rep = Int32Array.from({ length: topo.nv }, (_, i) => i); // copies of one rest position
+    if (dupFrom) for (let k = 0; k < dupFrom.length; k++) rep[dupFrom[k]] = dupTo[k];
+    paramsMesh = new PP.ParamsMesh(THREE, paramsModel, baseMaterial, topo.faces, rep);
     paramsLayout = -1;
     stats.paramsModels++;
   } else if (k === 'frame' && topo) {
@@ -375,11 +379,11 @@ let fpsCount = 0, fpsT0 = performance.now();
 function draw() {
   requestAnimationFrame(draw);
   if (pending && mesh) {
-    if (pending.encoding === PP.ENC_PARAMS) { // the vertex shader rebuilds the mesh
-      const x = paramsMesh.layouts[pending.layout];
-      paramsMesh.update(pending.layout);
-      mesh.material = x.material;
-      mesh.customDepthMaterial = x.depth;
+    if (pending.encoding === PP.ENC_PARAMS) { // the GPU rebuilds the mesh
+      paramsMesh.update(renderer, pending.layout);
+      mesh.material = paramsMesh.material;
+      mesh.customDepthMaterial = paramsMesh.depth;
+      window.meshsteerParams.drawnSeq = pending.seq;
     } else {
       mesh.material = baseMaterial;
       mesh.customDepthMaterial = undefined;

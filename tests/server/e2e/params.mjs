@@ -4,7 +4,8 @@
 // WebSocket. For params frames of both kinds (the steering model while the replay plays, its skin
 // once the replay has ended and the idle animation runs), the shader's positions read back by
 // transform feedback (window.meshsteerParams.snapshot) must equal the float32 frame of the same
-// sequence number within the int16 bound of docs/PROTOCOL.md on every axis of every vertex.
+// sequence number within the int16 bound of docs/PROTOCOL.md on every axis of every vertex; so
+// must the position texture the viewer draws the mesh from (its first pass, read back).
 // Usage: node params.mjs URL SCREENSHOT.png     (exit 77 = skip when chromium or playwright is absent)
 import { existsSync, mkdtempSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
@@ -53,12 +54,19 @@ try {
     };
     window.f32topo = () => topo;
   });
-  const checked = { 1: 0, 3: 0 }; // by layout kind: steer, skin
+  const checked = { 1: 0, 3: 0, drawn: 0 }; // by layout kind: steer, skin; the drawn positions
   let worst = 0;
   const t0 = Date.now();
-  while ((checked[1] < 3 || checked[3] < 3) && Date.now() - t0 < 60000) {
-    const snap = await page.evaluate(() => window.meshsteerParams.snapshot());
-    if (!snap || checked[snap.kind] >= 3) { await page.waitForTimeout(200); continue; }
+  while ((checked[1] < 3 || checked[3] < 3 || checked.drawn < 3) && Date.now() - t0 < 60000) {
+    // alternately: the shader by transform feedback, and the position texture the mesh is drawn from
+    const drawn = checked.drawn < 3 && (checked[1] + checked[3] + checked.drawn) % 2 === 1;
+    const snap = await page.evaluate(d => {
+      const m = window.meshsteerParams;
+      if (!d) return m.snapshot();
+      const V = m.positions();
+      return V && m.drawnSeq ? { seq: m.drawnSeq, kind: 'drawn', layout: -1, V } : null;
+    }, drawn);
+    if (!snap || (!drawn && checked[snap.kind] >= 3)) { await page.waitForTimeout(200); continue; }
     await page.waitForTimeout(600); // the float32 frame of that sequence number arrives meanwhile
     const r = await page.evaluate(s => {
       const f = window.f32.get(s.seq), t = window.f32topo();
@@ -73,21 +81,23 @@ try {
       return { worst, at, bad, n: s.V.length / 3, idle: (f.flags & 8) !== 0 };
     }, snap);
     if (!r) continue; // that frame was skipped on the float32 side: take another
-    console.log(`seq ${snap.seq} layout ${snap.layout} (${snap.kind === 1 ? 'steer' : 'skin'}${r.idle ? ', idle' : ''}): ` +
+    const what = snap.kind === 'drawn' ? 'drawn (position texture)' : snap.kind === 1 ? 'steer' : 'skin';
+    console.log(`seq ${snap.seq} layout ${snap.layout} (${what}${r.idle ? ', idle' : ''}): ` +
                 `${r.n} vertices, worst ${r.worst.toFixed(3)} of the int16 bound (coordinate ${r.at}), ${r.bad} outside`);
     if (r.bad) fail(`seq ${snap.seq}: ${r.bad} coordinates outside the int16 bound (worst ${r.worst})`);
-    if ((snap.kind === 3) !== r.idle) fail(`seq ${snap.seq}: layout kind ${snap.kind} but idle flag ${r.idle}`);
+    if (snap.kind !== 'drawn' && (snap.kind === 3) !== r.idle) fail(`seq ${snap.seq}: layout kind ${snap.kind} but idle flag ${r.idle}`);
     worst = Math.max(worst, r.worst);
     checked[snap.kind]++;
   }
-  if (checked[1] < 3 || checked[3] < 3) fail(`compared ${checked[1]} steer and ${checked[3]} skin frames, want 3 each`);
+  if (checked[1] < 3 || checked[3] < 3 || checked.drawn < 3)
+    fail(`compared ${checked[1]} steer, ${checked[3]} skin and ${checked.drawn} drawn frames, want 3 each`);
   const st = await page.evaluate(() => window.meshsteer);
   console.log(`params: ${st.paramsModels} params model(s), ${st.paramsFrames} params frames, ${st.rendered} drawn, ` +
               `${st.errors} errors${st.lastError ? ' (' + st.lastError + ')' : ''}; worst ${worst.toFixed(3)} of the bound`);
   if (st.errors) fail(`viewer errors: ${st.lastError}`);
   if (st.paramsModels < 1 || st.rendered < 10) fail('the viewer drew too few params frames');
   // the canvas is not blank: the shader's mesh is on screen
-  await page.screenshot({ path: shot });
+  await page.screenshot({ path: shot }); // (the file stays in the build tree for a look)
   const lit = await page.evaluate(() => {
     const c = document.querySelector('#view canvas'), g = document.createElement('canvas');
     g.width = c.width; g.height = c.height;

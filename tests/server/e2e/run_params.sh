@@ -21,8 +21,8 @@ cleanup() {
 }
 trap cleanup EXIT
 "$make_model" "$dir" >/dev/null
-# 240 tracked frames at half speed (16 s), then the source ends and the skin takes over
-"$meshsteerd" --model "$dir/two-kinds.msm" --source "replay:$dir/trot.csv?speed=0.5" \
+# 240 tracked frames at a quarter speed (32 s), then the source ends and the skin takes over
+"$meshsteerd" --model "$dir/two-kinds.msm" --source "replay:$dir/trot.csv?speed=0.25" \
     --listen 127.0.0.1:0 --web-root "$web" 2>"$dir/log" </dev/null >/dev/null &
 pid=$!
 port=
