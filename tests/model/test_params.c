@@ -4,6 +4,7 @@
  * example's model driven by its trot; skin: its fitted loop), and the harmonic-free refusals. */
 #include "model.h"
 #include "test.h"
+#include "quat.h"
 
 #include <errno.h>
 
@@ -36,10 +37,8 @@ static double reconstruct_max_err(const mdl_params_layout *L, const float *prm, 
                 for (int a = 0; a < L->nmodes[p]; a++)
                     y[c] += pr[7 + a] * L->modes[L->mode_off[p] + ((size_t)a * n + j) * 3 + c];
             }
-            double w = pr[0], qx = pr[1], qy = pr[2], qz = pr[3];
-            double R[9] = {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - w * qz), 2 * (qx * qz + w * qy),
-                           2 * (qx * qy + w * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - w * qx),
-                           2 * (qx * qz - w * qy), 2 * (qy * qz + w * qx), 1 - 2 * (qx * qx + qy * qy)};
+            double R[9];
+            test_quat_matrix(pr, R);
             for (int r = 0; r < 3; r++)
                 x[r] += L->slot_w[k] * (R[3 * r] * y[0] + R[3 * r + 1] * y[1] + R[3 * r + 2] * y[2] + pr[4 + r]);
         }

@@ -9,6 +9,7 @@
 #include "encode_params.h"
 #include "params.h"
 #include "test.h"
+#include "quat.h"
 
 #include <errno.h>
 #include <math.h>
@@ -42,10 +43,8 @@ static void formula(const mdl_params_layout *L, const float *prm, double *V)
                 for (int a = 0; a < L->nmodes[p]; a++)
                     y[c] += q[7 + a] * L->modes[L->mode_off[p] + (a * n + j) * 3 + c];
             }
-            double w = q[0], qx = q[1], qy = q[2], qz = q[3];
-            double R[9] = {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - w * qz), 2 * (qx * qz + w * qy),
-                           2 * (qx * qy + w * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - w * qx),
-                           2 * (qx * qz - w * qy), 2 * (qy * qz + w * qx), 1 - 2 * (qx * qx + qy * qy)};
+            double R[9];
+            test_quat_matrix(q, R);
             for (int r = 0; r < 3; r++)
                 x[r] += L->slot_w[k] * (R[3 * r] * y[0] + R[3 * r + 1] * y[1] + R[3 * r + 2] * y[2] + q[4 + r]);
         }
