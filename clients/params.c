@@ -44,6 +44,7 @@ void ws_params_free(ws_params *p)
     for (int l = 0; l < WS_PARAMS_MAX_LAYOUTS; l++) {
         free(p->layout[l].mode_at);
         free(p->layout[l].param_at);
+        free(p->layout[l].slot_at);
     }
     free(p->msg);
     memset(p, 0, sizeof *p);
@@ -53,20 +54,22 @@ void ws_params_free(ws_params *p)
 static int parse_layout(const unsigned char *m, size_t len, int nv, ws_params_layout *L,
                         size_t *used, char *err, size_t n)
 {
-    if (len < 32)
-        return fail(err, n, "layout header: %zu bytes left, need 32", len);
+    if (len < 36)
+        return fail(err, n, "layout header: %zu bytes left, need 36", len);
     L->kind = m[0];
     L->slots = m[2] | m[3] << 8;
     uint32_t ninst = u32(m + 4), nparts = u32(m + 8), nent = u32(m + 12), nmodes = u32(m + 16);
-    uint32_t nvals = u32(m + 20), nparams = u32(m + 24), blen = u32(m + 28);
-    if (blen < 32 || blen > len)
+    uint32_t nvals = u32(m + 20), nparams = u32(m + 24), blen = u32(m + 28), nused = u32(m + 32);
+    if (blen < 36 || blen > len)
         return fail(err, n, "layout length %u: %zu bytes left", blen, len);
-    if (!ninst || ninst > 65535 || !nparts || nparts > 65535 || !L->slots || nent > (1u << 26) ||
-        nmodes > (1u << 20) || nvals > (1u << 28) || nparams > (1u << 24))
-        return fail(err, n, "layout: implausible counts (%u pieces, %u shapes, %u entries)", ninst,
-                    nparts, nent);
-    uint64_t need = 32 + 16ull * nparts + 4ull * ninst + 4ull * nmodes + 12ull * nent +
-                    ((6ull * nvals + 3) & ~3ull) + 12ull * (uint64_t)nv * (uint64_t)L->slots;
+    if (!ninst || ninst > 65535 || !nparts || nparts > 65535 || !L->slots || L->slots > 255 ||
+        nent > (1u << 26) || nmodes > (1u << 20) || nvals > (1u << 28) || nparams > (1u << 24) ||
+        (uint64_t)nused > (uint64_t)nv * (uint64_t)L->slots)
+        return fail(err, n, "layout: implausible counts (%u pieces, %u shapes, %u entries, %u "
+                    "slots)", ninst, nparts, nent, nused);
+    uint64_t need = 36 + 16ull * nparts + 4ull * ninst + 4ull * nmodes + 12ull * nent +
+                    ((6ull * nvals + 3) & ~3ull) + (((uint64_t)nv + 3) & ~3ull) + 8ull * nused +
+                    ((2ull * nused + 3) & ~3ull);
     if (need != blen)
         return fail(err, n, "layout length %u, its counts need %llu", blen,
                     (unsigned long long)need);
@@ -75,15 +78,19 @@ static int parse_layout(const unsigned char *m, size_t len, int nv, ws_params_la
     L->nentries = (int)nent;
     L->nmodes = (int)nmodes;
     L->nparams = (int)nparams;
-    L->part = m + 32;
+    L->nused = (int)nused;
+    L->part = m + 36;
     L->inst = L->part + 16 * (size_t)nparts;
     L->scale = L->inst + 4 * (size_t)ninst;
     L->mean = L->scale + 4 * (size_t)nmodes;
     L->modes = L->mean + 12 * (size_t)nent;
-    L->slot = L->modes + ((6 * (size_t)nvals + 3) & ~(size_t)3);
+    L->count = L->modes + ((6 * (size_t)nvals + 3) & ~(size_t)3);
+    L->slot = L->count + (((size_t)nv + 3) & ~(size_t)3);
+    L->piece = L->slot + 8 * (size_t)nused;
     L->mode_at = calloc(nparts, sizeof *L->mode_at);
     L->param_at = calloc(ninst, sizeof *L->param_at);
-    if (!L->mode_at || !L->param_at)
+    L->slot_at = calloc((size_t)nv + 1, sizeof *L->slot_at);
+    if (!L->mode_at || !L->param_at || !L->slot_at)
         return fail(err, n, "out of memory");
     uint64_t vals = 0, modes = 0;
     for (uint32_t p = 0; p < nparts; p++) {
@@ -112,17 +119,24 @@ static int parse_layout(const unsigned char *m, size_t len, int nv, ws_params_la
     if (at != nparams)
         return fail(err, n, "pieces need %llu floats per frame, announced %u",
                     (unsigned long long)at, nparams);
-    for (size_t k = 0; k < (size_t)nv * (size_t)L->slots; k++) {
-        const unsigned char *s = L->slot + 12 * k;
-        uint32_t e = u32(s), i = u32(s + 4);
-        if (f32(s + 8) == 0)
-            continue;
-        uint32_t p = i < ninst ? u32(L->inst + 4 * (size_t)i) : 0;
-        const unsigned char *q = L->part + 16 * (size_t)p;
-        if (i >= ninst || e < u32(q) || e - u32(q) >= u32(q + 4))
-            return fail(err, n, "vertex %zu slot %zu: piece %u, entry %u outside its shape",
-                        k / (size_t)L->slots, k % (size_t)L->slots, i, e);
+    uint32_t k = 0;
+    for (int v = 0; v < nv; v++) {
+        if (L->count[v] > L->slots || k + L->count[v] > nused)
+            return fail(err, n, "vertex %d: %u slots (at most %d, %u in all)", v, L->count[v],
+                        L->slots, nused);
+        L->slot_at[v] = k;
+        for (int s = 0; s < L->count[v]; s++, k++) {
+            uint32_t e = u32(L->slot + 8 * (size_t)k), i = L->piece[2 * k] | L->piece[2 * k + 1] << 8;
+            uint32_t p = i < ninst ? u32(L->inst + 4 * (size_t)i) : 0;
+            const unsigned char *q = L->part + 16 * (size_t)p;
+            if (i >= ninst || e < u32(q) || e - u32(q) >= u32(q + 4))
+                return fail(err, n, "vertex %d slot %d: piece %u, entry %u outside its shape", v,
+                            s, i, e);
+        }
     }
+    L->slot_at[nv] = k;
+    if (k != nused)
+        return fail(err, n, "vertices hold %u slots, announced %u", k, nused);
     *used = blen;
     return 0;
 }
@@ -179,12 +193,11 @@ int ws_params_decode(const ws_params *p, const unsigned char *block, size_t len,
     const unsigned char *prm = block + 8;
     for (int v = 0; v < p->nv; v++) {
         float x[3] = {0, 0, 0};
-        for (int s = 0; s < L->slots; s++) {
-            const unsigned char *sl = L->slot + 12 * ((size_t)v * L->slots + s);
-            float w = f32(sl + 8);
-            if (w == 0)
-                continue;
-            uint32_t e = u32(sl), i = u32(sl + 4), sh = u32(L->inst + 4 * (size_t)i);
+        for (uint32_t k = L->slot_at[v]; k < L->slot_at[v + 1]; k++) {
+            const unsigned char *sl = L->slot + 8 * (size_t)k;
+            float w = f32(sl + 4);
+            uint32_t e = u32(sl), i = L->piece[2 * k] | L->piece[2 * k + 1] << 8;
+            uint32_t sh = u32(L->inst + 4 * (size_t)i);
             const unsigned char *q = L->part + 16 * (size_t)sh;
             uint32_t first = u32(q), cnt = u32(q + 4), k = u32(q + 8), mf = u32(q + 12);
             const unsigned char *pi = prm + 4 * (size_t)L->param_at[i];

@@ -16,13 +16,16 @@
 #define WS_PARAMS_MAX_LAYOUTS 2
 
 typedef struct ws_params_layout {
-    int kind, slots, ninst, nparts, nentries, nmodes, nparams;
+    int kind, slots, ninst, nparts, nentries, nmodes, nparams, nused;
     const unsigned char *part;   /* nparts x 16 bytes: first entry, entries, modes, first mode */
     const unsigned char *inst;   /* ninst x u32: the shape of each piece */
     const unsigned char *scale;  /* nmodes x f32 */
     const unsigned char *mean;   /* nentries x 3 f32 */
     const unsigned char *modes;  /* int16 values, part-major, mode-major, entry, xyz */
-    const unsigned char *slot;   /* nv x slots x {u32 entry, u32 piece, f32 weight} */
+    const unsigned char *count;  /* nv x u8: slots in use per vertex (at most `slots`) */
+    const unsigned char *slot;   /* nused x {u32 entry, f32 weight}, vertex by vertex */
+    const unsigned char *piece;  /* nused x u16: the piece of each */
+    uint32_t *slot_at;           /* nv + 1: the first slot of each vertex */
     uint32_t *mode_at;           /* nparts: the first int16 of the shape's modes */
     uint32_t *param_at;          /* ninst: the first float of the piece in a frame */
 } ws_params_layout;

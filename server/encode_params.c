@@ -34,7 +34,7 @@ static void mode_counts(const mdl_params_layout *L, size_t *nmodes, size_t *nval
 
 int srv_params_layout_check(const mdl_params_layout *L, int nv, char *err)
 {
-    if (L->ninst <= 0 || L->nparts <= 0 || L->slots <= 0 || L->slots > 65535 ||
+    if (L->ninst <= 0 || L->nparts <= 0 || L->slots <= 0 || L->slots > 255 ||
         L->ninst > 65535 || L->nparts > 65535)
         return srv_err(err, -EINVAL, "params layout: %d pieces, %d shapes, %d slots", L->ninst,
                        L->nparts, L->slots);
@@ -62,12 +62,21 @@ int srv_params_layout_check(const mdl_params_layout *L, int nv, char *err)
     return 0;
 }
 
+/* the slots in use (weight != 0): only those go on the wire */
+static size_t used_slots(const mdl_params_layout *L, int nv)
+{
+    size_t n = 0;
+    for (size_t k = 0; k < (size_t)nv * L->slots; k++)
+        n += L->slot_w[k] != 0;
+    return n;
+}
+
 static size_t layout_size(const mdl_params_layout *L, int nv)
 {
-    size_t nmodes, nvals, nent = (size_t)L->part_off[L->nparts];
+    size_t nmodes, nvals, nent = (size_t)L->part_off[L->nparts], nused = used_slots(L, nv);
     mode_counts(L, &nmodes, &nvals);
     return SRV_PARAMS_LAYOUT_HEADER + 16 * (size_t)L->nparts + 4 * (size_t)L->ninst + 4 * nmodes +
-           12 * nent + pad4(6 * nvals) + 12 * (size_t)nv * (size_t)L->slots;
+           12 * nent + pad4(6 * nvals) + pad4((size_t)nv) + 8 * nused + pad4(2 * nused);
 }
 
 size_t srv_params_model_size(const mdl_params_layout *L, int nlayouts, int nv)
@@ -81,6 +90,7 @@ size_t srv_params_model_size(const mdl_params_layout *L, int nlayouts, int nv)
 static unsigned char *write_layout(unsigned char *p, const mdl_params_layout *L, int nv)
 {
     size_t nmodes, nvals, nent = (size_t)L->part_off[L->nparts], len = layout_size(L, nv);
+    size_t nused = used_slots(L, nv);
     mode_counts(L, &nmodes, &nvals);
     memset(p, 0, SRV_PARAMS_LAYOUT_HEADER);
     p[0] = (unsigned char)L->kind;
@@ -92,6 +102,7 @@ static unsigned char *write_layout(unsigned char *p, const mdl_params_layout *L,
     srv_put_u32(p + 20, (uint32_t)nvals);
     srv_put_u32(p + 24, (uint32_t)L->nparams);
     srv_put_u32(p + 28, (uint32_t)len);
+    srv_put_u32(p + 32, (uint32_t)nused);
     p += SRV_PARAMS_LAYOUT_HEADER;
     uint32_t mfirst = 0;
     for (int q = 0; q < L->nparts; q++, p += 16) { /* shapes: entries, modes, first mode */
@@ -131,12 +142,29 @@ static unsigned char *write_layout(unsigned char *p, const mdl_params_layout *L,
     }
     for (; (size_t)(p - q16) < pad4(6 * nvals); p++)
         *p = 0;
-    for (size_t k = 0; k < (size_t)nv * L->slots; k++, p += 12) {
-        int used = L->slot_w[k] != 0;
-        srv_put_u32(p, used ? (uint32_t)L->slot_entry[k] : 0);
-        srv_put_u32(p + 4, used ? (uint32_t)L->slot_inst[k] : UINT32_MAX);
-        put_f32(p + 8, used ? L->slot_w[k] : 0.0f);
+    /* the blend slots in use: a count per vertex, then (entry, weight) and the piece of each */
+    unsigned char *cnt = p;
+    for (int v = 0; v < nv; v++) {
+        int c = 0;
+        for (int s = 0; s < L->slots; s++)
+            c += L->slot_w[(size_t)v * L->slots + s] != 0;
+        *p++ = (unsigned char)c;
     }
+    for (; (size_t)(p - cnt) < pad4((size_t)nv); p++)
+        *p = 0;
+    unsigned char *pieces = p + 8 * nused;
+    for (size_t k = 0; k < (size_t)nv * L->slots; k++) {
+        if (L->slot_w[k] == 0)
+            continue;
+        srv_put_u32(p, (uint32_t)L->slot_entry[k]);
+        put_f32(p + 4, L->slot_w[k]);
+        srv_put_u16(pieces, (uint16_t)L->slot_inst[k]);
+        p += 8;
+        pieces += 2;
+    }
+    p = pieces;
+    for (size_t k = nused; k < pad4(2 * nused) / 2; k++, p += 2)
+        srv_put_u16(p, 0);
     return p;
 }
 

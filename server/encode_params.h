@@ -18,7 +18,7 @@
 
 #define SRV_PARAMS_MAGIC "MSPM"
 #define SRV_PARAMS_HEADER 16
-#define SRV_PARAMS_LAYOUT_HEADER 32
+#define SRV_PARAMS_LAYOUT_HEADER 36
 #define SRV_PARAMS_MAX_LAYOUTS 2
 
 /* Checks that a layout's indices lie in range and its counts fit the wire's fields; 0 or -EINVAL

@@ -29,18 +29,18 @@ export function decodeParamsModel(buf) {
   const m = { generation: dv.getUint32(8, true), nv: dv.getUint32(12, true), layouts: [] };
   let at = 16;
   for (let l = 0; l < n; l++) {
-    if (at + 32 > buf.byteLength) throw new Error('params model: truncated layout header');
+    if (at + 36 > buf.byteLength) throw new Error('params model: truncated layout header');
     const L = {
       kind: dv.getUint8(at), slots: dv.getUint16(at + 2, true), ninst: dv.getUint32(at + 4, true),
       nparts: dv.getUint32(at + 8, true), nentries: dv.getUint32(at + 12, true),
       nmodes: dv.getUint32(at + 16, true), nvals: dv.getUint32(at + 20, true),
       nparams: dv.getUint32(at + 24, true),
     };
-    const len = dv.getUint32(at + 28, true);
-    const need = 32 + 16 * L.nparts + 4 * L.ninst + 4 * L.nmodes + 12 * L.nentries +
-                 ((6 * L.nvals + 3) & ~3) + 12 * m.nv * L.slots;
+    const len = dv.getUint32(at + 28, true), nused = dv.getUint32(at + 32, true);
+    const need = 36 + 16 * L.nparts + 4 * L.ninst + 4 * L.nmodes + 12 * L.nentries +
+                 ((6 * L.nvals + 3) & ~3) + ((m.nv + 3) & ~3) + 8 * nused + ((2 * nused + 3) & ~3);
     if (len !== need || at + len > buf.byteLength) throw new Error(`params model: layout ${l} length ${len}, expected ${need}`);
-    let p = at + 32;
+    let p = at + 36;
     const part = [];
     for (let q = 0; q < L.nparts; q++, p += 16)
       part.push({ first: dv.getUint32(p, true), n: dv.getUint32(p + 4, true), k: dv.getUint32(p + 8, true),
@@ -69,13 +69,19 @@ export function decodeParamsModel(buf) {
           for (let c = 0; c < 3; c++, vals++)
             L.modes[4 * (modeFirst[qi] + j * q.k + a) + c] = scale[q.mode + a] * dv.getInt16(modesAt + 2 * vals, true);
     });
+    // the slots in use (a count per vertex, then entry and weight, then the pieces) spread to
+    // `slots` texels per vertex, unused ones weight 0
     L.slotTex = new Float32Array(4 * m.nv * L.slots);
-    for (let k = 0; k < m.nv * L.slots; k++) {
-      const s = slotAt + 12 * k, w = dv.getFloat32(s + 8, true);
-      if (w === 0) continue;
-      const e = dv.getUint32(s, true), i = dv.getUint32(s + 4, true);
-      if (i >= L.ninst || e >= L.nentries) throw new Error(`params model: vertex ${k / L.slots | 0}: piece ${i}, entry ${e}`);
-      L.slotTex[4 * k] = e; L.slotTex[4 * k + 1] = i; L.slotTex[4 * k + 2] = w;
+    const pairAt = slotAt + ((m.nv + 3) & ~3), pieceAt = pairAt + 8 * nused;
+    for (let v = 0, k = 0; v < m.nv; v++) {
+      const c = dv.getUint8(slotAt + v);
+      if (c > L.slots || k + c > nused) throw new Error(`params model: vertex ${v}: ${c} slots`);
+      for (let s = 0; s < c; s++, k++) {
+        const e = dv.getUint32(pairAt + 8 * k, true), i = dv.getUint16(pieceAt + 2 * k, true);
+        if (i >= L.ninst || e >= L.nentries) throw new Error(`params model: vertex ${v}: piece ${i}, entry ${e}`);
+        const t = 4 * (v * L.slots + s);
+        L.slotTex[t] = e; L.slotTex[t + 1] = i; L.slotTex[t + 2] = dv.getFloat32(pairAt + 8 * k + 4, true);
+      }
     }
     // per piece: quaternion, (t, k), then the coefficients four to a texel
     L.stride = 2 + Math.ceil(L.maxk / 4);

@@ -173,8 +173,10 @@ int main(int argc, char **argv)
     unsigned char *copy = malloc(g->params_len);
     ASSERT(copy);
     memcpy(copy, g->params, g->params_len);
-    size_t slots_at = g->params_len - 12 * 2 * NV;
-    srv_put_u32(copy + slots_at, 4); /* vertex 0 slot 0: piece 0 (shape 0, entries 0-2), entry 4 */
+    /* the message ends with 8 slots in use: 8 x (entry, weight), then 8 pieces (16 bytes) */
+    size_t slots_at = g->params_len - 16 - 8 * 8;
+    ASSERT_INT_EQ(srv_get_u32(copy + slots_at), 0); /* vertex 0 slot 0: entry 0 ... */
+    srv_put_u32(copy + slots_at, 4); /* ... now 4, outside piece 0's shape 0 (entries 0-2) */
     ws_params T;
     ASSERT_INT_EQ(ws_params_parse(copy, g->params_len, &T, err, sizeof err), -1);
     printf("refused: %s\n", err);
