@@ -1,12 +1,14 @@
 /* test_params.c - the compact form of synthesis (model.h, mdl_synth_params_layout /
  * mdl_synth_params; kind.c, steer/synth.c, skin/play.c): the layout's formula, evaluated here from
  * the layout and the parameters alone, gives the vertices mdl_synth_frame wrote (steer: the built-in
- * example's model driven by its trot; skin: its fitted loop), and the harmonic-free refusals. */
+ * example's model driven by its trot; skin: its fitted loop), -EAGAIN before the first frame, and
+ * no allocation per frame. */
 #include "model.h"
 #include "test.h"
 #include "quat.h"
 
 #include <errno.h>
+#include <malloc.h>
 
 /* V_v = sum_s w (R(q_i) (mean_e + sum_a lam_a mode_a[e]) + t_i), in double */
 static double reconstruct_max_err(const mdl_params_layout *L, const float *prm, const float *V,
@@ -77,6 +79,16 @@ int main(void)
     float *prm = calloc((size_t)L.nparams, sizeof *prm), *V = calloc((size_t)seq->nv * 3, sizeof *V);
     ASSERT(prm && V);
     ASSERT_INT_EQ(mdl_synth_params(s, prm), -EAGAIN); /* no frame yet */
+    /* the per-frame path (frame, then its parameters) allocates nothing: the heap in use is the
+     * same after 4 frames (meaningful without ASan, whose allocator mallinfo2 does not see) */
+    struct mallinfo2 before = mallinfo2();
+    for (int f = 0; f < 4; f++) {
+        ASSERT_OK(mdl_synth_markers(s, trot->P + (size_t)f * trot->count * 3, NULL, V, NULL), err);
+        ASSERT_INT_EQ(mdl_synth_params(s, prm), 0);
+    }
+    struct mallinfo2 after = mallinfo2();
+    ASSERT_INT_EQ(after.uordblks, before.uordblks);
+    ASSERT_INT_EQ(after.hblkhd, before.hblkhd);
     double diag = 2.0;
     for (int f = 0; f < trot->frames; f++) {
         ASSERT_OK(mdl_synth_markers(s, trot->P + (size_t)f * trot->count * 3, NULL, V, NULL), err);

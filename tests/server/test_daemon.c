@@ -1383,9 +1383,22 @@ static void scenario_invalid(void)
     struct lws_context *ctx = wsc_context();
     ASSERT(ctx);
     wsc *A = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *Q = wsc_connect(ctx, H.port, NULL, 1); /* a params client */
+    wsc_send(Q, "{\"type\":\"encoding\",\"encoding\":\"params\"}");
     run_until(ctx, A, 25, 0, 5000); /* 25 fps: a second of frames */
     ASSERT_INT_EQ(A->protocol_errors, 0);
     const float *rest = (const float *)(A->topo + 56);
+    /* synthesis never made a frame, so there are no parameters: the params client gets the
+     * rest pose as int16 frames (docs/PROTOCOL.md 3), after its params model */
+    want wq = {Q, 10, 0, 0, 0, 1};
+    ASSERT(wsc_run(ctx, 5000, enough, &wq));
+    ASSERT_INT_EQ(Q->protocol_errors, 0);
+    ASSERT_INT_EQ(Q->params_msgs, 1);
+    for (int i = 0; i < Q->nframes; i++) {
+        ASSERT_INT_NE(Q->frames[i].encoding, 2);
+        for (int k = 0; Q->frames[i].encoding == 1 && k < Q->nv * 3; k++)
+            ASSERT_NEAR_I(Q->frames[i].V[k], rest[k], (Q->qmax[k % 3] - Q->qmin[k % 3]) / 131070.0 + 1e-6, k);
+    }
     for (int i = 0; i < A->nframes; i++) {
         ASSERT(A->frames[i].flags & 1); /* reference lost */
         for (int k = 0; k < A->nv * 3; k++)
@@ -1409,6 +1422,7 @@ static void scenario_invalid(void)
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
     lws_context_destroy(ctx);
     wsc_free(A);
+    wsc_free(Q);
 }
 
 /* ------------------------------------------------------------------ http */
