@@ -68,6 +68,7 @@ seeds_of() {
     daemon_config) local_seeds=(tests/server/data/meshsteerd.conf server/meshsteerd.conf.example) ;;
     labels) local_seeds=(tests/server/data/labels_*.txt) ;;
     wsframe) local_seeds=(tests/server/data/ws_stream.bin) ;;
+    params) local_seeds=(tests/server/data/params_model.bin) ;;
     esac
     for f in "${local_seeds[@]}"; do [ -f "$f" ] && echo "$f"; done
     if [ -d "$data" ]; then

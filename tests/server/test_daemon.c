@@ -527,7 +527,7 @@ static size_t frame_bytes(const wsc *c, int enc, int nparams)
  * (MSPM) once, then encoding-2 frames which, rebuilt by clients/params.c, match the float32
  * frames of the same sequence number within the int16 bound, for the steering model's tracked
  * frames (layout 0) and its skin's idle frames (layout 1); a reload sends a new MSPM. */
-static void scenario_params(void)
+static void scenario_params(const char *load)
 {
     char model[1200], source[1200];
     snprintf(model, sizeof model, "%s/two-kinds.msm", H.dir);
@@ -572,6 +572,30 @@ static void scenario_params(void)
     ASSERT_INT_GE(idle, 20);
     ASSERT_INT_GE(compared, 40);
     ASSERT(bs * 10 < b1);
+    /* meshsteer-load -e params: every connection gets its params model before params frames,
+     * and the bytes per frame are the params frame's (the steering model's, while it tracks) */
+    if (load) {
+        char port[16], out[1200];
+        snprintf(port, sizeof port, "%d", H.port);
+        snprintf(out, sizeof out, "%s/load-params.json", H.dir);
+        const char *argv[] = {load, "-n", "3", "-t", "1", "-w", "0.3", "-e", "params", "-p", port,
+                              "-j", NULL};
+        ASSERT_INT_EQ(harness_run(argv, out), 0);
+        FILE *lf = fopen(out, "r");
+        ASSERT(lf);
+        char buf[2048];
+        size_t got = fread(buf, 1, sizeof buf - 1, lf);
+        fclose(lf);
+        buf[got] = '\0';
+        cJSON *j = cJSON_Parse(strchr(buf, '{') ? strchr(buf, '{') : buf);
+        ASSERT(j);
+        double bpf = cJSON_GetObjectItem(j, "bytes_per_frame")->valuedouble;
+        printf("params: meshsteer-load -e params: %g bytes/frame, %g frames\n", bpf,
+               cJSON_GetObjectItem(j, "received")->valuedouble);
+        ASSERT(cJSON_GetObjectItem(j, "received")->valuedouble > 30);
+        ASSERT(bpf == (double)bs || bpf == (double)bk); /* steer, or the skin once idle */
+        cJSON_Delete(j);
+    }
     /* a reload: a new hello, topology and params model, then params frames of the new generation */
     ASSERT_INT_EQ(kill(H.pid, SIGHUP), 0);
     want wh = {P, 0, 0, 2, 0, -1};
@@ -1611,7 +1635,7 @@ int main(int argc, char **argv)
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
                         "stream|slow|record|limits|origin|idle|kinds|config|labels|listen|invalid|"
-                        "http|horse [MESHSTEER]\n");
+                        "http|horse|params [MESHSTEER | MESHSTEER_LOAD]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
@@ -1640,7 +1664,7 @@ int main(int argc, char **argv)
     else if (!strcmp(argv[3], "kinds"))
         scenario_kinds();
     else if (!strcmp(argv[3], "params"))
-        scenario_params();
+        scenario_params(argc == 5 ? argv[4] : NULL);
     else if (!strcmp(argv[3], "config"))
         scenario_config();
     else if (!strcmp(argv[3], "labels"))
