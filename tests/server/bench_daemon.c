@@ -98,12 +98,8 @@ static void run_row(const char *load, row *r, double secs)
     r->synth_busy = harness_metric(&H, "meshsteer_drops_total{reason=\"synth_busy\"}") - busy0;
     r->m50 = hist_quant(&a, &b, 0.5);
     r->m99 = hist_quant(&a, &b, 0.99);
-    FILE *f = fopen(out, "r");
-    ASSERT(f);
     char buf[4096];
-    size_t got = fread(buf, 1, sizeof buf - 1, f);
-    fclose(f);
-    buf[got] = '\0';
+    harness_read(out, buf, sizeof buf);
     const char *js = strchr(buf, '{');
     r->j = js ? cJSON_Parse(js) : NULL;
     if (!r->j || st > 1) {

@@ -43,5 +43,8 @@ long harness_rss_kb(const harness *h);
 /* Runs argv (NULL-terminated) to completion with stdout and stderr into out_path; returns the exit
  * status (128 + signal when killed). */
 int harness_run(const char *const *argv, const char *out_path);
+/* The first cap - 1 bytes of a file (the output of harness_run) into buf, NUL-terminated; exits on
+ * a missing file. Returns buf. */
+char *harness_read(const char *path, char *buf, size_t cap);
 
 #endif

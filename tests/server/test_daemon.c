@@ -581,12 +581,8 @@ static void scenario_params(const char *load)
         const char *argv[] = {load, "-n", "3", "-t", "1", "-w", "0.3", "-e", "params", "-p", port,
                               "-j", NULL};
         ASSERT_INT_EQ(harness_run(argv, out), 0);
-        FILE *lf = fopen(out, "r");
-        ASSERT(lf);
         char buf[2048];
-        size_t got = fread(buf, 1, sizeof buf - 1, lf);
-        fclose(lf);
-        buf[got] = '\0';
+        harness_read(out, buf, sizeof buf);
         cJSON *j = cJSON_Parse(strchr(buf, '{') ? strchr(buf, '{') : buf);
         ASSERT(j);
         double bpf = cJSON_GetObjectItem(j, "bytes_per_frame")->valuedouble;
