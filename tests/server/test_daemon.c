@@ -1253,10 +1253,14 @@ static void scenario_horse(const char *meshsteer)
     ASSERT(ctx);
     wsc *A = wsc_connect(ctx, H.port, NULL, 1);
     wsc *B = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *C = wsc_connect(ctx, H.port, NULL, 1);
     wsc_send(B, "{\"type\":\"encoding\",\"encoding\":\"int16\"}");
+    wsc_send(C, "{\"type\":\"encoding\",\"encoding\":\"params\"}");
     run_until(ctx, A, 120, 0, 20000);
-    want wb = {B, 120, 0, 0, 0, 1};
+    want wb = {B, 120, 0, 0, 0, 1}, wc = {C, 120, 0, 0, 0, 2};
     ASSERT(wsc_run(ctx, 20000, enough, &wb));
+    ASSERT(wsc_run(ctx, 20000, enough, &wc));
+    ASSERT_INT_EQ(C->protocol_errors, 0);
     ASSERT_INT_EQ(A->protocol_errors, 0);
     ASSERT_INT_EQ(B->protocol_errors, 0);
 
@@ -1377,6 +1381,15 @@ static void scenario_horse(const char *meshsteer)
     int compared = compare_encodings(A, B, &worst);
     printf("horse: encodings agree on %d frames, worst error %.3f of the bound\n", compared, worst);
     ASSERT(compared >= 60);
+    /* the params encoding too (docs/PROTOCOL.md 2b), at a twentieth of int16's bytes at most */
+    worst = 0;
+    compared = compare_encodings_as(A, C, 2, &worst);
+    size_t b16 = frame_bytes(B, 1, 0), bp = frame_bytes(C, 2, C->params->layout[0].nparams);
+    printf("horse: params frames agree with float32 on %d frames, worst error %.3f of the int16 "
+           "bound; %zu bytes per frame against int16's %zu (%.1fx); params model %zu bytes\n",
+           compared, worst, bp, b16, (double)b16 / bp, C->params_len);
+    ASSERT(compared >= 60);
+    ASSERT(bp * 20 <= b16);
 
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_drops_total{reason=\"synth_failed\"}"), 0);
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_partial_writes_total"), 0);
@@ -1384,6 +1397,7 @@ static void scenario_horse(const char *meshsteer)
     lws_context_destroy(ctx);
     wsc_free(A);
     wsc_free(B);
+    wsc_free(C);
     mdl_meshseq_destroy(gt);
     mdl_markers_destroy(mk);
 }
