@@ -2,8 +2,10 @@
  * per-model "generation" that owns them.
  *
  * A generation is everything the daemon derives from one loaded model: the hello (JSON), the
- * topology message (rest pose, faces, parts, quantisation box) and a small pool of frame buffers.
- * Each frame is encoded once per encoding (float32 and int16) and shared by every client by
+ * topology message (rest pose, faces, parts, quantisation box), the params model message of its
+ * kinds' compact forms (encode_params.h) and a small pool of frame buffers. Each frame is encoded
+ * once per encoding (float32, int16, and params where the synthesis that made it has a compact
+ * form) and shared by every client by
  * reference; only the lws thread writes the per-send fields (t_send, skipped) just before
  * lws_write, and the synthesis thread refills a pool entry only once nobody references it.
  * All buffers have LWS_PRE bytes of headroom and are sized at creation: encoding allocates nothing.

@@ -2,7 +2,8 @@
  *
  *   source thread:    drv_source_read (paced by the source) -> newest-marker slot (+ recording)
  *   synthesis thread: newest slot -> model marker order (the bundle's map) -> mdl_synth_frame
- *                     -> srv_frame_encode -> publish as the latest frame under `pub` -> wake()
+ *                     -> srv_frame_encode (+ mdl_synth_params -> srv_frame_encode_params)
+ *                     -> publish as the latest frame under `pub` -> wake()
  * A bundle whose kind reads no markers (a clock-driven kind, MDL_INPUT_CLOCK) is run on a clock at
  * its model's fps instead of at the source's frames. A bundle may also hold an *idle* synthesis:
  * the clock-driven kind of the same model file (so the same mesh, and no new hello when it takes

@@ -1,6 +1,7 @@
 /* proto_stream.c - the /stream WebSocket protocol of meshsteerd (docs/PROTOCOL.md).
  *
- * Per session: hello (JSON) -> topology (binary) -> frames, newest first: when the session is
+ * Per session: hello (JSON) -> topology (binary) -> [params model, once per generation, for a
+ * session in the params encoding] -> frames, newest first: when the session is
  * writable it gets the latest published frame if it has not had it, so a slow client skips frames
  * (counted per session and in /metrics) instead of queueing them, and costs at most one frame in
  * lws's send buffer. One lws_write per WRITEABLE callback, from buffers with LWS_PRE headroom.
