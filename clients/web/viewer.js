@@ -5,7 +5,8 @@
 // live label drives each), the model kind and what drives it. Playback controls (pause/resume, seek,
 // speed) appear for the controls the hello's source.controls offers; a screenshot button saves a PNG
 // and a record button a WebM clip (MediaRecorder). It reconnects by itself (the camera is kept) and
-// exposes its counters as window.meshsteer for tests.
+// exposes its counters as window.meshsteer for tests. With the params encoding (?encoding=params,
+// docs/PROTOCOL.md 2b) params.js rebuilds positions and normals on the GPU.
 import * as THREE from './node_modules/three/build/three.module.js';
 import { Orbit } from './orbit.js';
 import * as P from './protocol.js';
