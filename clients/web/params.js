@@ -317,19 +317,22 @@ highp vec3 msNormal(int v) {
   }
 }
 
-// Transform feedback: the positions RECONSTRUCT_GLSL gives for layout l's current parameters,
-// read back (nv x 3 Float32Array), on a WebGL2 context of its own (tests; the viewer's renderer
-// is left alone).
-export function readback(model, l) {
-  const L = model.layouts[l], nv = model.nv;
+// Transform feedback: the positions RECONSTRUCT_GLSL gives for layout l with the parameter
+// texture contents `paramTex` (default: the layout's current ones), read back (nv x 3
+// Float32Array), on a WebGL2 context of its own (tests; the viewer's renderer is left alone). The
+// context, program and the layout's fixed textures are made at the first call and kept.
+const feedback = new WeakMap(); // layout -> { gl, prog, params texture, output buffer, tf }
+function feedbackFor(L, nv) {
+  let f = feedback.get(L);
+  if (f) return f;
   const gl = document.createElement('canvas').getContext('webgl2');
   if (!gl) throw new Error('no WebGL2');
   const sh = (type, src) => {
-    const s = gl.createShader(type);
-    gl.shaderSource(s, src);
-    gl.compileShader(s);
-    if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
-    return s;
+    const x = gl.createShader(type);
+    gl.shaderSource(x, src);
+    gl.compileShader(x);
+    if (!gl.getShaderParameter(x, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(x));
+    return x;
   };
   const prog = gl.createProgram();
   gl.attachShader(prog, sh(gl.VERTEX_SHADER, `#version 300 es
@@ -346,7 +349,6 @@ void main() { c = vec4(0.0); }`));
   gl.linkProgram(prog);
   if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
   gl.useProgram(prog);
-  const textures = [];
   const bind = (name, arr, texels, unit) => {
     const [w, h] = texSize(texels);
     const t = gl.createTexture();
@@ -356,18 +358,31 @@ void main() { c = vec4(0.0); }`));
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
     gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, w, h, 0, gl.RGBA, gl.FLOAT, padded(arr, texels));
     gl.uniform1i(gl.getUniformLocation(prog, name), unit);
-    textures.push(t);
+    return t;
   };
   bind('msSlots', L.slotTex, nv * L.slots, 0);
   bind('msMeans', L.means, L.nentries, 1);
   bind('msModes', L.modes, L.modes.length / 4, 2);
-  bind('msParams', L.paramTex, L.ninst * L.stride, 3);
+  const params = bind('msParams', L.paramTex, L.ninst * L.stride, 3);
   gl.uniform1i(gl.getUniformLocation(prog, 'msSlotsPer'), L.slots);
   gl.uniform1i(gl.getUniformLocation(prog, 'msStride'), L.stride);
   const out = gl.createBuffer();
   gl.bindBuffer(gl.TRANSFORM_FEEDBACK_BUFFER, out);
   gl.bufferData(gl.TRANSFORM_FEEDBACK_BUFFER, 12 * nv, gl.STREAM_READ);
   const tf = gl.createTransformFeedback();
+  f = { gl, params, out, tf };
+  feedback.set(L, f);
+  return f;
+}
+
+export function readback(model, l, paramTex) {
+  const L = model.layouts[l], nv = model.nv;
+  const { gl, params, out, tf } = feedbackFor(L, nv);
+  const [w, h] = texSize(L.ninst * L.stride);
+  gl.activeTexture(gl.TEXTURE3);
+  gl.bindTexture(gl.TEXTURE_2D, params);
+  gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, w, h, gl.RGBA, gl.FLOAT,
+                   padded(paramTex || L.paramTex, L.ninst * L.stride));
   gl.bindTransformFeedback(gl.TRANSFORM_FEEDBACK, tf);
   gl.bindBufferBase(gl.TRANSFORM_FEEDBACK_BUFFER, 0, out);
   gl.enable(gl.RASTERIZER_DISCARD);
@@ -379,11 +394,5 @@ void main() { c = vec4(0.0); }`));
   const V = new Float32Array(3 * nv);
   gl.bindBuffer(gl.TRANSFORM_FEEDBACK_BUFFER, out);
   gl.getBufferSubData(gl.TRANSFORM_FEEDBACK_BUFFER, 0, V);
-  for (const t of textures) gl.deleteTexture(t);
-  gl.deleteBuffer(out);
-  gl.deleteTransformFeedback(tf);
-  gl.deleteProgram(prog);
-  const lose = gl.getExtension('WEBGL_lose_context');
-  if (lose) lose.loseContext();
   return V;
 }

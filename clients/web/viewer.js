@@ -83,12 +83,17 @@ orbit.update();
 
 let mesh = null, points = null, topo = null;
 let baseMaterial = null, paramsModel = null, paramsMesh = null; // params.js: the GPU rebuild
-let paramsSeq = 0, paramsLayout = -1; // the newest params frame decoded into paramsModel
-// tests: the positions the params shader gives for the newest params frame (transform feedback)
+// tests: the positions the params shader gives for a recent params frame (transform feedback):
+// the parameters of the last 120 params frames are kept by sequence number
+const recentParams = new Map();
 window.meshsteerParams = {
-  snapshot: () => paramsModel && paramsLayout >= 0
-    ? { seq: paramsSeq, layout: paramsLayout, kind: paramsModel.layouts[paramsLayout].kind,
-        V: Array.from(PP.readback(paramsModel, paramsLayout)) } : null,
+  seqs: kind => Array.from(recentParams.keys())
+    .filter(q => paramsModel && paramsModel.layouts[recentParams.get(q).layout].kind === kind),
+  snapshot: seq => {
+    const r = paramsModel && recentParams.get(seq);
+    return r ? { seq, layout: r.layout, kind: paramsModel.layouts[r.layout].kind,
+                 V: Array.from(PP.readback(paramsModel, r.layout, r.prm)) } : null;
+  },
   material: () => Boolean(mesh && paramsMesh && mesh.material === paramsMesh.material),
   positions: () => paramsMesh ? Array.from(paramsMesh.positions(renderer)) : null, // what is drawn
   drawnSeq: 0, // the params frame those positions are of
@@ -332,7 +337,7 @@ function onBinary(buf) {
     stats.nv = topo.nv; stats.nf = topo.nf;
     if (paramsMesh) paramsMesh.dispose();
     paramsMesh = paramsModel = null; // the new generation's params model follows, if asked for
-    paramsLayout = -1;
+    recentParams.clear();
     buildMesh(topo);
   } else if (PP.isParamsModel(buf) && topo) {
     paramsModel = PP.decodeParamsModel(buf);
@@ -341,15 +346,15 @@ function onBinary(buf) {
     const rep = Int32Array.from({ length: topo.nv }, (_, i) => i); // copies of one rest position
     if (dupFrom) for (let k = 0; k < dupFrom.length; k++) rep[dupFrom[k]] = dupTo[k];
     paramsMesh = new PP.ParamsMesh(THREE, paramsModel, baseMaterial, topo.faces, rep);
-    paramsLayout = -1;
+    recentParams.clear();
     stats.paramsModels++;
   } else if (k === 'frame' && topo) {
     const h = P.decodeFrame(buf, topo, decoded);
     if (h.encoding === PP.ENC_PARAMS) {
       h.layout = PP.decodeParamsBlock(new DataView(buf), paramsModel);
-      paramsSeq = h.seq;
-      paramsLayout = h.layout;
       stats.paramsFrames++;
+      recentParams.set(h.seq, { layout: h.layout, prm: paramsModel.layouts[h.layout].paramTex.slice() });
+      if (recentParams.size > 120) recentParams.delete(recentParams.keys().next().value);
     }
     stats.frames++;
     stats.dropped += h.skipped;

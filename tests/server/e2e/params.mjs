@@ -54,40 +54,47 @@ try {
     };
     window.f32topo = () => topo;
   });
-  const checked = { 1: 0, 3: 0, drawn: 0 }; // by layout kind: steer, skin; the drawn positions
+  // Each check takes a frame both WebSockets got: the shader by transform feedback for one of the
+  // viewer's last 120 params frames of the wanted kind (steer: layout kind 1, skin: 3), or the
+  // position texture the mesh was last drawn from ('drawn'), against the float32 frame.
+  const checked = { 1: 0, 3: 0, drawn: 0 };
   let worst = 0;
   const t0 = Date.now();
-  while ((checked[1] < 3 || checked[3] < 3 || checked.drawn < 3) && Date.now() - t0 < 60000) {
-    // alternately: the shader by transform feedback, and the position texture the mesh is drawn from
-    const drawn = checked.drawn < 3 && (checked[1] + checked[3] + checked.drawn) % 2 === 1;
-    const snap = await page.evaluate(d => {
-      const m = window.meshsteerParams;
-      if (!d) return m.snapshot();
-      const V = m.positions();
-      return V && m.drawnSeq ? { seq: m.drawnSeq, kind: 'drawn', layout: -1, V } : null;
-    }, drawn);
-    if (!snap || (!drawn && checked[snap.kind] >= 3)) { await page.waitForTimeout(200); continue; }
-    await page.waitForTimeout(600); // the float32 frame of that sequence number arrives meanwhile
-    const r = await page.evaluate(s => {
-      const f = window.f32.get(s.seq), t = window.f32topo();
-      if (!f || !t) return null;
+  const order = [1, 'drawn', 1, 'drawn', 1, 'drawn', 3, 3, 3];
+  for (let n = 0; n < order.length && Date.now() - t0 < 90000;) {
+    const want = order[n];
+    const r = await page.evaluate(want => {
+      const m = window.meshsteerParams, t = window.f32topo();
+      if (!t) return null;
+      let snap = null;
+      if (want === 'drawn') {
+        if (window.f32.has(m.drawnSeq)) snap = { seq: m.drawnSeq, layout: -1, kind: 'drawn', V: m.positions() };
+      } else {
+        const q = m.seqs(want).filter(q => window.f32.has(q)).pop(); // the newest in both
+        if (q !== undefined) snap = m.snapshot(q);
+      }
+      if (!snap) return null;
+      const f = window.f32.get(snap.seq);
       let worst = 0, at = -1, bad = 0;
-      for (let i = 0; i < s.V.length; i++) {
+      for (let i = 0; i < snap.V.length; i++) {
         const a = i % 3, bound = (t.qmax[a] - t.qmin[a]) / 131070 * 1.0001 + 1e-6;
-        const d = Math.abs(s.V[i] - f.V[i]) / bound;
+        const d = Math.abs(snap.V[i] - f.V[i]) / bound;
         if (!(d <= 1)) bad++;
         if (!(d <= worst)) { worst = d; at = i; }
       }
-      return { worst, at, bad, n: s.V.length / 3, idle: (f.flags & 8) !== 0 };
-    }, snap);
-    if (!r) continue; // that frame was skipped on the float32 side: take another
-    const what = snap.kind === 'drawn' ? 'drawn (position texture)' : snap.kind === 1 ? 'steer' : 'skin';
-    console.log(`seq ${snap.seq} layout ${snap.layout} (${what}${r.idle ? ', idle' : ''}): ` +
+      return { seq: snap.seq, layout: snap.layout, kind: snap.kind, worst, at, bad, n: snap.V.length / 3,
+               idle: (f.flags & 8) !== 0 };
+    }, want);
+    if (!r) { await page.waitForTimeout(250); continue; } // no common frame of that kind yet
+    const what = r.kind === 'drawn' ? 'drawn (position texture)' : r.kind === 1 ? 'steer' : 'skin';
+    console.log(`seq ${r.seq} layout ${r.layout} (${what}${r.idle ? ', idle' : ''}): ` +
                 `${r.n} vertices, worst ${r.worst.toFixed(3)} of the int16 bound (coordinate ${r.at}), ${r.bad} outside`);
-    if (r.bad) fail(`seq ${snap.seq}: ${r.bad} coordinates outside the int16 bound (worst ${r.worst})`);
-    if (snap.kind !== 'drawn' && (snap.kind === 3) !== r.idle) fail(`seq ${snap.seq}: layout kind ${snap.kind} but idle flag ${r.idle}`);
+    if (r.bad) fail(`seq ${r.seq}: ${r.bad} coordinates outside the int16 bound (worst ${r.worst})`);
+    if (r.kind !== 'drawn' && (r.kind === 3) !== r.idle) fail(`seq ${r.seq}: layout kind ${r.kind} but idle flag ${r.idle}`);
     worst = Math.max(worst, r.worst);
-    checked[snap.kind]++;
+    checked[r.kind]++;
+    n++;
+    await page.waitForTimeout(300); // the next check on other frames
   }
   if (checked[1] < 3 || checked[3] < 3 || checked.drawn < 3)
     fail(`compared ${checked[1]} steer, ${checked[3]} skin and ${checked.drawn} drawn frames, want 3 each`);
