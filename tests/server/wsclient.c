@@ -151,9 +151,7 @@ static int callback(struct lws *wsi, enum lws_callback_reasons reason, void *use
         } else {
             c->rx[c->rx_len] = '\0';
             if (strstr((char *)c->rx, "\"type\":\"hello\"")) {
-                ws_params_free(c->params);
-    free(c->params);
-    free(c->hello);
+                free(c->hello);
                 c->hello = strdup((char *)c->rx);
                 c->hellos++;
             } else if (c->ntexts < WSC_MAX_TEXT) {
@@ -300,6 +298,8 @@ void wsc_free(wsc *c)
         free(c->texts[i]);
     for (int i = 0; i < c->nout; i++)
         free(c->out[i]);
+    ws_params_free(c->params);
+    free(c->params);
     free(c->hello);
     free(c->topo);
     free(c->rx);
