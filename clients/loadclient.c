@@ -16,12 +16,14 @@
  * the handshake (status 101 checked; Sec-WebSocket-Accept is not verified, this is a measuring
  * tool on a known server), the server's frames parsed as a stream by wsframe.c (payload skipped
  * in bulk, only the first 56 bytes of each message kept), pings answered, close honoured, and one
- * masked text frame sent (the encoding request). One recv of up to 1 MB per readable socket, the
- * receipt time taken once per recv. No allocation after start. With -i, every INTERVAL seconds of
+ * masked text frame sent (the encoding request). With -e params it counts params frames (and the
+ * int16 frames of a kind without a compact form) and checks that each connection got its params
+ * model (MSPM) before its first params frame; it reports the bytes per frame. One recv of up to 1 MB
+ * per readable socket, the receipt time taken once per recv. No allocation after start. With -i, every INTERVAL seconds of
  * the measured time also one line: frames/s of the slowest client and the mean over that interval,
  * and how many are still connected (for long runs, tests/server/soak_daemon.c; WebSocket only).
  * With --nats the same figures are measured over NATS instead (loadclient_nats.c).
- * Usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16] [-p PORT]
+ * Usage: meshsteer-load [-n CLIENTS] [-t SECONDS] [-w WARMUP_S] [-e float32|int16|params] [-p PORT]
  *                       [-H HOST] [-O ORIGIN] [-i INTERVAL_S] [-j]
  *                       [--nats URL[,URL...] [--subject PREFIX]] */
 #include <errno.h>
@@ -57,10 +59,12 @@ typedef struct conn {
     uint64_t t_recv; /* receipt time of the bytes being parsed */
     load_stats st;
     uint64_t frames_at_interval; /* frames at the start of the current -i interval */
+    int have_model; /* params: the params model (MSPM) has arrived */
 } conn;
 
 static load_run R;
-static int want_enc;       /* WebSocket: 0 float32, 1 int16 */
+static int want_enc;       /* WebSocket: 0 float32, 1 int16, 2 params */
+static uint64_t order_errors; /* WebSocket params: frames before their connection's params model */
 static double interval_s;  /* -i: seconds per progress line, 0 for none */
 static int json_out;       /* -j */
 
@@ -115,18 +119,25 @@ static int fail(conn *c, const char *why)
 static void on_message(void *ud, int binary, const unsigned char *h, size_t head_len, uint64_t len)
 {
     conn *c = ud;
-    (void)len;
+    if (binary && head_len >= 4 && !memcmp(h, "MSPM", 4)) {
+        c->have_model = 1; /* the params model: parsed by clients/params.c where it is used */
+        return;
+    }
     if (!binary || head_len < HEADER || memcmp(h, "MSFR", 4))
         return; /* hello, topology, replies */
-    if (h[4] != want_enc)
+    if (h[4] == 2 && !c->have_model)
+        order_errors++;
+    /* params: a frame of a kind without a compact form comes as int16 */
+    if (h[4] != want_enc && !(want_enc == 2 && h[4] == 1))
         return; /* before the encoding switch took effect */
-    load_frame(&R, &c->st, h, c->t_recv);
+    load_frame(&R, &c->st, h, len, c->t_recv);
 }
 
-void load_frame(load_run *r, load_stats *s, const unsigned char *h, uint64_t t)
+void load_frame(load_run *r, load_stats *s, const unsigned char *h, uint64_t len, uint64_t t)
 {
     if (t < r->t_measure || t >= r->t_end)
         return; /* warm-up, or after the end */
+    s->bytes += len;
     uint64_t seq = le64(h + 24), tc = le64(h + 32), tsy = le64(h + 40), ts = le64(h + 48);
     if (!s->frames)
         s->first_seq = seq;
@@ -358,7 +369,8 @@ int main(int argc, char **argv)
         case 'h':
             printf("%s\n"
                    "Opens CLIENTS WebSocket connections to meshsteerd (default 1, to 127.0.0.1:8080),\n"
-                   "subscribes each to the stream in the given encoding (default float32), discards\n"
+                   "subscribes each to the stream in the given encoding (default float32; params:\n"
+                   "the compact parameter stream, int16 frames where a kind has none), discards\n"
                    "the first WARMUP_S seconds (default 1), then counts frames for SECONDS (default\n"
                    "10) and prints frames per second and the capture-to-receive latency (median,\n"
                    "p99, max). -O sets the Origin header (default http://HOST:PORT); -i prints a\n"
@@ -394,8 +406,9 @@ int main(int argc, char **argv)
         return 2;
     }
     /* over NATS the encoding is a subject name: any the daemon has */
-    if (!nats && strcmp(R.encoding, "float32") && strcmp(R.encoding, "int16")) {
-        fprintf(stderr, "meshsteer-load: -e float32 or int16\n");
+    if (!nats && strcmp(R.encoding, "float32") && strcmp(R.encoding, "int16") &&
+        strcmp(R.encoding, "params")) {
+        fprintf(stderr, "meshsteer-load: -e float32, int16 or params\n");
         return 2;
     }
     json_out = json;
@@ -404,7 +417,7 @@ int main(int argc, char **argv)
         snprintf(origin_buf, sizeof origin_buf, "http://%s:%d", host, port);
         origin = origin_buf;
     }
-    want_enc = !strcmp(R.encoding, "int16");
+    want_enc = !strcmp(R.encoding, "int16") ? 1 : !strcmp(R.encoding, "params") ? 2 : 0;
     /* room for 240 frames/s per client over the measured time */
     R.caplat = (size_t)((double)n * secs * 240) + 1024;
     R.e2e = malloc(R.caplat * sizeof *R.e2e);
@@ -423,10 +436,11 @@ int main(int argc, char **argv)
     if (rc < 0)
         return nats ? 2 : 1;
 
-    uint64_t frames = 0, sent = 0, skipped = 0;
+    uint64_t frames = 0, sent = 0, skipped = 0, bytes = 0;
     double fps_min = -1;
     for (int i = 0; i < n; i++) {
         frames += st[i].frames;
+        bytes += st[i].bytes;
         sent += st[i].frames ? st[i].last_seq - st[i].first_seq + 1 : 0;
         skipped += st[i].skipped;
         double f = (double)st[i].frames / secs;
@@ -445,24 +459,25 @@ int main(int argc, char **argv)
     double emax = quant(R.e2e, nlat, 1.0);
     double s50 = quant(R.srv, nlat, 0.5), s99 = quant(R.srv, nlat, 0.99);
     double y50 = quant(R.syn, nlat, 0.5), y99 = quant(R.syn, nlat, 0.99);
+    double bpf = frames ? (double)bytes / (double)frames : 0;
     const char *via = nats ? "nats" : "websocket";
     if (json)
         printf("{\"clients\":%d,\"connected\":%d,\"transport\":\"%s\",\"encoding\":\"%s\","
                "\"seconds\":%g,\"received\":%llu,\"sent\":%llu,\"skipped\":%llu,"
                "\"fps_mean\":%.2f,\"fps_min\":%.2f,\"e2e_p50_ms\":%.3f,\"e2e_p99_ms\":%.3f,"
                "\"e2e_max_ms\":%.3f,\"server_p50_ms\":%.3f,\"server_p99_ms\":%.3f,"
-               "\"synth_p50_ms\":%.3f,\"synth_p99_ms\":%.3f}\n",
+               "\"synth_p50_ms\":%.3f,\"synth_p99_ms\":%.3f,\"bytes_per_frame\":%.1f}\n",
                n, up, via, R.encoding, secs, (unsigned long long)frames,
                (unsigned long long)sent, (unsigned long long)skipped, fps, fps_min, e50, e99, emax,
-               s50, s99, y50, y99);
+               s50, s99, y50, y99, bpf);
     else
         printf("clients %d (connected %d) over %s, encoding %s, %.1f s: frames received %llu of "
                "%llu sent (%.2f%%), skipped %llu, %.1f frames/s per client (slowest %.1f); "
                "end-to-end p50 %.2f ms p99 %.2f ms max %.2f ms; capture->send p50 %.2f ms p99 "
-               "%.2f ms; capture->synthesised p50 %.2f ms p99 %.2f ms\n",
+               "%.2f ms; capture->synthesised p50 %.2f ms p99 %.2f ms; %.0f bytes/frame\n",
                n, up, via, R.encoding, secs, (unsigned long long)frames,
                (unsigned long long)sent, pct, (unsigned long long)skipped, fps, fps_min, e50, e99,
-               emax, s50, s99, y50, y99);
+               emax, s50, s99, y50, y99, bpf);
     if (lost)
         fprintf(stderr, "meshsteer-load: %zu latencies not stored (more frames than expected)\n",
                 lost);
@@ -470,5 +485,8 @@ int main(int argc, char **argv)
     free(R.e2e);
     free(R.srv);
     free(R.syn);
-    return up == n && rc == 0 ? 0 : 1;
+    if (order_errors)
+        fprintf(stderr, "meshsteer-load: %llu params frames came before their params model\n",
+                (unsigned long long)order_errors);
+    return up == n && rc == 0 && !order_errors ? 0 : 1;
 }

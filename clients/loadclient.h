@@ -13,6 +13,7 @@
 /* One subscriber's frames over the measured time. */
 typedef struct load_stats {
     uint64_t first_seq, last_seq, frames, skipped;
+    uint64_t bytes; /* frame message bytes counted */
 } load_stats;
 
 typedef struct load_run {
@@ -24,9 +25,9 @@ typedef struct load_run {
 } load_run;
 
 uint64_t load_now_us(void);
-/* Counts a frame message (h: its first LOAD_HEADER bytes, checked by the caller) received at t
- * into s and r. Thread-safe across different s. */
-void load_frame(load_run *r, load_stats *s, const unsigned char *h, uint64_t t);
+/* Counts a frame message of len bytes (h: its first LOAD_HEADER bytes, checked by the caller)
+ * received at t into s and r. Thread-safe across different s. */
+void load_frame(load_run *r, load_stats *s, const unsigned char *h, uint64_t len, uint64_t t);
 
 /* NATS: n subscribers, subscriber i connected to the i-th URL of the comma list (round robin; the
  * others are its fail-over list), each subscribed to PREFIX.frames.ENCODING after joining as a late

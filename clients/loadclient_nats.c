@@ -33,7 +33,7 @@ static void on_frame(natsConnection *nc, natsSubscription *s, natsMsg *m, void *
     uint64_t t = load_now_us();
     const unsigned char *h = (const unsigned char *)natsMsg_GetData(m);
     if (natsMsg_GetDataLength(m) >= LOAD_HEADER && !memcmp(h, "MSFR", 4))
-        load_frame(u->r, u->st, h, t);
+        load_frame(u->r, u->st, h, (uint64_t)natsMsg_GetDataLength(m), t);
     else
         atomic_fetch_add(&u->bad, 1);
     natsMsg_Destroy(m);

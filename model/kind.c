@@ -321,6 +321,21 @@ int mdl_synth_markers(mdl_synth *s, const float *markers, const uint8_t *valid, 
     return s->ops->synth_frame(s->state, &in, V, info);
 }
 
+int mdl_synth_params_layout(const mdl_synth *s, mdl_params_layout *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!s->ops->synth_params_layout)
+        return -ENOTSUP;
+    int rc = s->ops->synth_params_layout(s->state, out);
+    out->kind = s->ops->id;
+    return rc;
+}
+
+int mdl_synth_params(const mdl_synth *s, float *out)
+{
+    return s->ops->synth_params ? s->ops->synth_params(s->state, out) : -ENOTSUP;
+}
+
 void mdl_synth_reset(mdl_synth *s)
 {
     s->ops->synth_reset(s->state);

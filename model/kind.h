@@ -38,6 +38,10 @@ typedef struct mdl_kind_ops {
     int (*synth_frame)(void *state, const mdl_synth_input *in, float *V, mdl_synth_info *info);
     void (*synth_reset)(void *state);
     void (*synth_destroy)(void *state);
+    /* The compact form of the synthesis (model.h, mdl_params_layout); both NULL when the kind
+     * has none. params fills layout.nparams floats from the last frame, -EAGAIN before one. */
+    int (*synth_params_layout)(const void *state, mdl_params_layout *out);
+    int (*synth_params)(const void *state, float *out);
 
     /* Quality against ground truth (model.h, mdl_eval_run); NULL when the kind has none. */
     int (*eval)(const mdl_model *m, const mdl_meshseq *seq, const int *frames, int n,

@@ -347,6 +347,42 @@ int mdl_synth_markers(mdl_synth *s, const float *markers, const uint8_t *valid, 
 /* Forgets held markers and motion history (seek, new performer). */
 void mdl_synth_reset(mdl_synth *s);
 
+/* The compact form of a synthesis (the "params" encoding of docs/PROTOCOL.md), for the kinds whose
+ * output is exactly a weighted blend of rigidly placed shapes (paper 2012 Sec. 4.4 eq. 6 and
+ * Sec. 5.3 eq. 8; linear blend skinning for the skin, Le & Deng 2012):
+ *   V_v = sum_{s < slots, w_vs != 0} w_vs (R_i (mean_e + sum_a lambda_ia mode_pa[e]) + t_i),
+ *   i = slot_inst[v, s], e = slot_entry[v, s], p = inst_part[i],
+ * with R_i, t_i and lambda_i the per-frame parameters (mdl_synth_params) and everything else the
+ * layout, fixed at mdl_synth_create. The steering kind: pieces are the instances (a part within a
+ * limb), shapes the parts' means and PCA modes, slots the blend weights of eq. (8); nothing follows
+ * the blend, so the formula is the synthesis itself (float, the same values). The skin: pieces are
+ * the bones, one shape (the rest pose, no modes), slots the skin's K weights. */
+typedef struct mdl_params_layout {
+    int kind;              /* MDL_KIND_* it describes */
+    int ninst;             /* pieces: one rigid transform (+ coefficients) each per frame */
+    int nparts;            /* shapes: a mean and modes each */
+    const int *part_off;   /* nparts + 1: entries of part p are [part_off[p], part_off[p + 1]) */
+    const float *mean;     /* part_off[nparts] x 3: mean local positions (metres) */
+    const int *nmodes;     /* nparts: modes k_p */
+    const int *mode_off;   /* nparts: offset of part p's modes in `modes` (floats) */
+    const float *modes;    /* per part, k_p blocks of n_p x 3 (mode a of entry j at
+                              mode_off[p] + (a n_p + j) 3) */
+    const int *inst_part;  /* ninst: the shape of each piece */
+    int slots;             /* blend slots per vertex */
+    const int *slot_entry; /* nv x slots: entry (into mean, global), -1 where unused */
+    const int *slot_inst;  /* nv x slots: piece, -1 where unused */
+    const float *slot_w;   /* nv x slots: weight, 0 where unused */
+    int nparams;           /* floats of one frame's parameters: sum_i (7 + k_{inst_part[i]}) */
+} mdl_params_layout;
+
+/* The layout of s (valid while s lives); -ENOTSUP when its kind has no compact form (harmonic:
+ * its Poisson solve couples every vertex). */
+int mdl_synth_params_layout(const mdl_synth *s, mdl_params_layout *out);
+/* The parameters of the last frame mdl_synth_frame made: per piece in order a unit quaternion
+ * (w, x, y, z) of R_i, t_i (3), then lambda_i (k of its shape), layout.nparams floats into out.
+ * -ENOTSUP without a compact form, -EAGAIN before the first frame. Allocates nothing. */
+int mdl_synth_params(const mdl_synth *s, float *out);
+
 /* Limits BLAS to n threads (the daemon and the benchmarks own their threads: n = 1). */
 void mdl_set_blas_threads(int n);
 

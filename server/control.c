@@ -184,7 +184,7 @@ int srv_control_parse(const char *txt, size_t len, srv_control *out, const char 
     case SRV_CTL_ENCODING:
         if (!cJSON_IsString(v) || (out->encoding = srv_encoding_parse(v->valuestring)) < 0) {
             r = fail(code, "bad_field", msg, msglen,
-                     "field 'encoding' must be \"float32\" or \"int16\"");
+                     "field 'encoding' must be \"float32\", \"int16\" or \"params\"");
             goto done;
         }
         break;

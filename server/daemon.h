@@ -42,6 +42,7 @@ struct srv_session {
     srv_gen *gen;     /* the generation this client was greeted with (referenced) */
     int stage;        /* 0 hello due, 1 topology due, 2 streaming */
     int encoding;
+    uint32_t params_sent; /* generation id whose params model (MSPM) this client has; 0 none */
     uint64_t last_seq;      /* the newest frame written to this client */
     uint64_t accounted_seq; /* frames up to this one were counted as written or skipped */
     uint64_t frames, skipped; /* frames written; frames superseded before this client got them */

@@ -222,7 +222,7 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
     if (!strcmp(key, "encoding")) {
         int e = srv_encoding_parse(v);
         if (e < 0)
-            return srv_err(err, -EINVAL, "encoding: '%s' (expected float32 or int16)", v);
+            return srv_err(err, -EINVAL, "encoding: '%s' (expected float32, int16 or params)", v);
         c->encoding = e;
         return 0;
     }

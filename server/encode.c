@@ -2,6 +2,7 @@
  * (see encode.h and docs/PROTOCOL.md). */
 #include "srv_err.h"
 #include "encode.h"
+#include "encode_params.h"
 #include "control.h"
 #include "daemon_config.h"
 
@@ -14,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const char *const enc_names[SRV_ENC_COUNT] = {"float32", "int16"};
+static const char *const enc_names[SRV_ENC_COUNT] = {"float32", "int16", "params"};
 
 int srv_encoding_parse(const char *name)
 {
@@ -38,6 +39,11 @@ size_t srv_frame_size(int enc, int nv, int nm)
 {
     size_t vb = enc == SRV_ENC_INT16 ? (size_t)nv * 3 * 2 : (size_t)nv * 3 * 4;
     return SRV_FRAME_HEADER + pad4(vb) + (size_t)nm * 12 + pad4((size_t)nm);
+}
+
+size_t srv_frame_params_size(int nparams, int nm)
+{
+    return SRV_FRAME_HEADER + srv_params_block_size(nparams) + (size_t)nm * 12 + pad4((size_t)nm);
 }
 
 size_t srv_topology_size(int nv, int nf)
@@ -93,6 +99,14 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
     cJSON_AddItemToObject(m, "bbox_max", cJSON_CreateFloatArray(bmax, 3));
     cJSON_AddItemToObject(m, "quant_min", cJSON_CreateFloatArray(g->qmin, 3));
     cJSON_AddItemToObject(m, "quant_max", cJSON_CreateFloatArray(g->qmax, 3));
+    cJSON *pk = cJSON_AddArrayToObject(m, "params");
+    for (int l = 0; l < g->nlayouts; l++) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "kind", mdl_kind_name(g->layout_kind[l]) ? mdl_kind_name(g->layout_kind[l]) : "");
+        cJSON_AddNumberToObject(o, "floats", g->layout_nparams[l]);
+        cJSON_AddNumberToObject(o, "bytes", (double)srv_frame_params_size(g->layout_nparams[l], g->nm));
+        cJSON_AddItemToArray(pk, o);
+    }
     cJSON *mk = cJSON_AddArrayToObject(h, "markers");
     for (int i = 0; i < g->nm; i++) {
         cJSON *o = cJSON_CreateObject();
@@ -124,7 +138,22 @@ static char *build_hello(const mdl_model_info *info, const srv_gen *g, const srv
 int srv_gen_create(const mdl_model_info *info, const srv_source_desc *src, uint32_t id,
                    srv_gen **out, char *err)
 {
+    return srv_gen_create_params(info, src, id, NULL, 0, out, err);
+}
+
+int srv_gen_create_params(const mdl_model_info *info, const srv_source_desc *src, uint32_t id,
+                          const mdl_params_layout *layouts, int nlayouts, srv_gen **out,
+                          char *err)
+{
     *out = NULL;
+    if (nlayouts < 0 || nlayouts > SRV_PARAMS_MAX_LAYOUTS)
+        return srv_err(err, -EINVAL, "%d params layouts (at most %d)", nlayouts,
+                       SRV_PARAMS_MAX_LAYOUTS);
+    for (int l = 0; l < nlayouts; l++) {
+        int r = srv_params_layout_check(&layouts[l], info->nv, err);
+        if (r)
+            return r;
+    }
     if (info->nv <= 0 || info->nf < 0 || info->nmarkers < 0 || !info->rest ||
         (info->nf > 0 && !info->F))
         return srv_err(err, -EINVAL, "model has no mesh");
@@ -140,6 +169,11 @@ int srv_gen_create(const mdl_model_info *info, const srv_source_desc *src, uint3
     g->nf = info->nf;
     g->nm = info->nmarkers;
     g->topology = info->topology;
+    g->nlayouts = nlayouts;
+    for (int l = 0; l < nlayouts; l++) {
+        g->layout_kind[l] = layouts[l].kind;
+        g->layout_nparams[l] = layouts[l].nparams;
+    }
     snprintf(g->name, sizeof g->name, "%s", info->name ? info->name : "");
     snprintf(g->kind, sizeof g->kind, "%s", mdl_kind_name(info->kind) ? mdl_kind_name(info->kind) : "");
     /* the parts: ids must lie in [0, nparts) */
@@ -176,10 +210,16 @@ int srv_gen_create(const mdl_model_info *info, const srv_source_desc *src, uint3
 
     size_t fsz[SRV_ENC_COUNT], total = 0;
     size_t tsz = srv_topology_size(g->nv, g->nf);
-    for (int e = 0; e < SRV_ENC_COUNT; e++) {
+    for (int e = 0; e < SRV_ENC_PARAMS; e++) {
         fsz[e] = srv_frame_size(e, g->nv, g->nm);
         total += SRV_POOL * (LWS_PRE + fsz[e]);
     }
+    size_t psz = 0, msz = srv_params_model_size(layouts, nlayouts, g->nv);
+    for (int l = 0; l < nlayouts; l++)
+        if (srv_frame_params_size(g->layout_nparams[l], g->nm) > psz)
+            psz = srv_frame_params_size(g->layout_nparams[l], g->nm);
+    fsz[SRV_ENC_PARAMS] = psz;
+    total += SRV_POOL * (LWS_PRE + psz) + LWS_PRE + msz;
     total += LWS_PRE + tsz;
     g->storage = malloc(total);
     char *hello = g->storage ? build_hello(info, g, src) : NULL;
@@ -208,6 +248,10 @@ int srv_gen_create(const mdl_model_info *info, const srv_source_desc *src, uint3
         f->gen = g;
         for (int e = 0; e < SRV_ENC_COUNT; e++) {
             f->msg[e] = p + LWS_PRE;
+            if (fsz[e] == 0) { /* no params form in this generation */
+                f->len[e] = 0;
+                continue;
+            }
             f->len[e] = fsz[e];
             memset(f->msg[e], 0, fsz[e]);
             memcpy(f->msg[e], SRV_FRAME_MAGIC, 4);
@@ -217,7 +261,13 @@ int srv_gen_create(const mdl_model_info *info, const srv_source_desc *src, uint3
             srv_put_u32(f->msg[e] + SRV_FRAME_OFF_NM, (uint32_t)g->nm);
             p += LWS_PRE + fsz[e];
         }
+        f->len[SRV_ENC_PARAMS] = 0; /* no params form until srv_frame_encode_params */
     }
+    /* the params model message */
+    g->params = p + LWS_PRE;
+    g->params_len = msz;
+    srv_params_model_write(g->params, layouts, nlayouts, g->nv, id);
+    p += LWS_PRE + msz;
     /* the topology message */
     g->topo = p + LWS_PRE;
     g->topo_len = tsz;
@@ -350,4 +400,22 @@ void srv_frame_encode(srv_frame *f, uint64_t seq, uint64_t t_capture_us, uint64_
     }
     put_header(m, seq, t_capture_us, t_synth_us, flags | (clamped ? SRV_FLAG_CLAMPED : 0), missing);
     put_markers(p, g->nm, markers, valid);
+    f->len[SRV_ENC_PARAMS] = 0;
+}
+
+void srv_frame_encode_params(srv_frame *f, int layout, const float *prm)
+{
+    const srv_gen *g = f->gen;
+    if (layout < 0 || layout >= g->nlayouts)
+        return;
+    int n = g->layout_nparams[layout];
+    const unsigned char *src = f->msg[SRV_ENC_FLOAT32];
+    unsigned char *m = f->msg[SRV_ENC_PARAMS];
+    memcpy(m, src, SRV_FRAME_HEADER); /* the same header, but for the encoding */
+    m[SRV_FRAME_OFF_ENCODING] = SRV_ENC_PARAMS;
+    srv_params_block_write(m + SRV_FRAME_HEADER, layout, prm, n);
+    size_t mk = (size_t)g->nm * 12 + pad4((size_t)g->nm); /* the marker block, as is */
+    memcpy(m + SRV_FRAME_HEADER + srv_params_block_size(n),
+           src + SRV_FRAME_HEADER + (size_t)g->nv * 12, mk);
+    f->len[SRV_ENC_PARAMS] = srv_frame_params_size(n, g->nm);
 }

@@ -2,8 +2,10 @@
  * per-model "generation" that owns them.
  *
  * A generation is everything the daemon derives from one loaded model: the hello (JSON), the
- * topology message (rest pose, faces, parts, quantisation box) and a small pool of frame buffers.
- * Each frame is encoded once per encoding (float32 and int16) and shared by every client by
+ * topology message (rest pose, faces, parts, quantisation box), the params model message of its
+ * kinds' compact forms (encode_params.h) and a small pool of frame buffers. Each frame is encoded
+ * once per encoding (float32, int16, and params where the synthesis that made it has a compact
+ * form) and shared by every client by
  * reference; only the lws thread writes the per-send fields (t_send, skipped) just before
  * lws_write, and the synthesis thread refills a pool entry only once nobody references it.
  * All buffers have LWS_PRE bytes of headroom and are sized at creation: encoding allocates nothing.
@@ -28,7 +30,9 @@
 #define SRV_POOL 4
 #define SRV_QBOX_MARGIN 0.5f
 
-enum { SRV_ENC_FLOAT32 = 0, SRV_ENC_INT16 = 1, SRV_ENC_COUNT = 2 };
+/* frame encodings (byte 4 of a frame); params frames exist only for kinds with a compact form
+ * (encode_params.h): a client that chose params gets int16 frames from the others */
+enum { SRV_ENC_FLOAT32 = 0, SRV_ENC_INT16 = 1, SRV_ENC_PARAMS = 2, SRV_ENC_COUNT = 3 };
 
 /* frame flags (byte 5) */
 enum {
@@ -64,7 +68,8 @@ typedef struct srv_frame {
     uint64_t seq;
     uint64_t t_capture_us;
     unsigned char *msg[SRV_ENC_COUNT]; /* message start; LWS_PRE writable bytes precede it */
-    size_t len[SRV_ENC_COUNT];
+    size_t len[SRV_ENC_COUNT];         /* len[SRV_ENC_PARAMS] 0: this frame has no params form
+                                          (send the int16 message instead) */
 } srv_frame;
 
 /* What the hello says about the source. */
@@ -96,6 +101,11 @@ struct srv_gen {
     size_t hello_len;
     unsigned char *topo;  /* binary, LWS_PRE headroom */
     size_t topo_len;
+    int nlayouts;         /* compact forms (encode_params.h), 0 .. SRV_PARAMS_MAX_LAYOUTS */
+    int layout_kind[2];   /* MDL_KIND_* of each */
+    int layout_nparams[2];/* floats per frame of each */
+    unsigned char *params; /* the MSPM message, LWS_PRE headroom (always: 0 layouts says none) */
+    size_t params_len;
     srv_frame frames[SRV_POOL];
     unsigned char *storage;
 };
@@ -103,7 +113,9 @@ struct srv_gen {
 /* "float32" | "int16" -> SRV_ENC_*, -1 otherwise. */
 int srv_encoding_parse(const char *name);
 const char *srv_encoding_name(int enc);
+/* float32 and int16 frames; a params frame is srv_frame_params_size. */
 size_t srv_frame_size(int enc, int nv, int nm);
+size_t srv_frame_params_size(int nparams, int nm);
 size_t srv_topology_size(int nv, int nf);
 
 /* Builds a generation from the model's info (a plain struct, so tests can pass a hand-made one);
@@ -111,6 +123,11 @@ size_t srv_topology_size(int nv, int nf);
  * refs starts at 1; the last srv_gen_unref frees it. */
 int srv_gen_create(const mdl_model_info *info, const srv_source_desc *src, uint32_t id,
                    srv_gen **out, char *err);
+/* The same with the compact forms of the generation's kinds (layouts[0 .. nlayouts), at most
+ * SRV_PARAMS_MAX_LAYOUTS; the primary kind's first), for the params encoding. */
+int srv_gen_create_params(const mdl_model_info *info, const srv_source_desc *src, uint32_t id,
+                          const mdl_params_layout *layouts, int nlayouts, srv_gen **out,
+                          char *err);
 void srv_gen_ref(srv_gen *g);
 void srv_gen_unref(srv_gen *g); /* NULL is fine */
 
@@ -120,6 +137,10 @@ srv_frame *srv_gen_free_frame(srv_gen *g);
 void srv_frame_encode(srv_frame *f, uint64_t seq, uint64_t t_capture_us, uint64_t t_synth_us,
                       const float *V, const float *markers, const uint8_t *valid, int flags,
                       int missing);
+/* After srv_frame_encode: the params message of the same frame from layout `layout`'s
+ * parameters (g->layout_nparams[layout] floats, mdl_synth_params). Without this call the frame
+ * has no params form. */
+void srv_frame_encode_params(srv_frame *f, int layout, const float *prm);
 /* A frame reference also holds its generation. */
 void srv_frame_ref(srv_frame *f);
 void srv_frame_unref(srv_frame *f); /* NULL is fine */

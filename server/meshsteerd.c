@@ -53,7 +53,7 @@ static void usage(FILE *f)
             "      --token SECRET      require ?token=SECRET or 'Authorization: Bearer SECRET'\n"
             "      --origin any|same|LIST  Origin check for /stream (default any)\n"
             "      --web-root DIR      directory served at / (default: the built viewer)\n"
-            "      --encoding float32|int16  default frame encoding\n"
+            "      --encoding float32|int16|params  default frame encoding\n"
             "      --labels MAP        drive the model with other marker labels:\n"
             "                          MODEL=LABEL[,MODEL=LABEL...], the rig's 'source' label\n"
             "                          MODEL fed by the source's LABEL (one LABEL may feed\n"

@@ -105,6 +105,7 @@ void srv_bundle_fini(srv_bundle *b)
     free(b->V);
     free(b->mk);
     free(b->mv);
+    free(b->prm);
     memset(b, 0, sizeof *b);
 }
 
@@ -279,7 +280,22 @@ int srv_pipeline_load(const char *model_path, const char *labels, const srv_sour
         .idle = out->idle != NULL,
     };
     info.nmarkers = out->nm; /* the hello lists the markers the model is driven by */
-    r = srv_gen_create(&info, &desc, id, &out->gen, e);
+    /* the compact forms (the params encoding): the primary kind's, then the idle kind's */
+    mdl_params_layout lay[SRV_PARAMS_MAX_LAYOUTS];
+    int nlay = 0, most = 1;
+    out->layout_synth = out->layout_idle = -1;
+    if (mdl_synth_params_layout(out->synth, &lay[nlay]) == 0)
+        out->layout_synth = nlay++;
+    if (out->idle && mdl_synth_params_layout(out->idle, &lay[nlay]) == 0)
+        out->layout_idle = nlay++;
+    for (int l = 0; l < nlay; l++)
+        most = lay[l].nparams > most ? lay[l].nparams : most;
+    out->prm = calloc((size_t)most, sizeof *out->prm);
+    if (!out->prm) {
+        r = srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
+        goto fail;
+    }
+    r = srv_gen_create_params(&info, &desc, id, lay, nlay, &out->gen, e);
     if (r) {
         r = srv_err(err, r, "model %s: %s", model_path, e);
         goto fail;
@@ -561,9 +577,10 @@ int srv_pipeline_degraded(srv_pipeline *p, char *why, size_t n)
     return 1;
 }
 
-/* Publishes b->V (and the model-ordered markers b->mk, b->mv) as the newest frame. */
-static void publish(srv_pipeline *p, srv_bundle *b, uint64_t t_capture, uint64_t t0, int flags,
-                    int missing)
+/* Publishes b->V (and the model-ordered markers b->mk, b->mv) as the newest frame, with the
+ * compact form of synthesis s (the one that made b->V: its last frame) where it has one. */
+static void publish(srv_pipeline *p, srv_bundle *b, const mdl_synth *s, uint64_t t_capture,
+                    uint64_t t0, int flags, int missing)
 {
     srv_frame *f = srv_gen_free_frame(b->gen);
     if (!f) { /* cannot happen with SRV_POOL >= 3; count it rather than trust it */
@@ -572,6 +589,9 @@ static void publish(srv_pipeline *p, srv_bundle *b, uint64_t t_capture, uint64_t
     }
     uint64_t t1 = srv_now_us();
     srv_frame_encode(f, p->seq + 1, t_capture, t1, b->V, b->mk, b->mv, flags, missing);
+    int layout = s == b->synth ? b->layout_synth : s && s == b->idle ? b->layout_idle : -1;
+    if (layout >= 0 && mdl_synth_params(s, b->prm) == 0)
+        srv_frame_encode_params(f, layout, b->prm);
     uint64_t t2 = srv_now_us();
     srv_hist_observe(&p->m->synth, t2 - t0);
     srv_frame_ref(f);
@@ -645,12 +665,12 @@ static int synth_tracked(srv_pipeline *p, srv_bundle *b, const float *xyz, const
     synth_health(p, b, r);
     if (r != 0) {
         if (!b->idle) /* the last good pose again (the idle animation takes over otherwise) */
-            publish(p, b, t_capture, t0, SRV_FLAG_REFERENCE_LOST, si.markers_missing);
+            publish(p, b, b->synth, t_capture, t0, SRV_FLAG_REFERENCE_LOST, si.markers_missing);
         return r;
     }
     int flags = (si.reference_lost ? SRV_FLAG_REFERENCE_LOST : 0) |
                 (si.markers_held ? SRV_FLAG_HELD : 0);
-    publish(p, b, t_capture, t0, flags, si.markers_missing);
+    publish(p, b, b->synth, t_capture, t0, flags, si.markers_missing);
     return 0;
 }
 
@@ -665,7 +685,7 @@ static void synth_clock(srv_pipeline *p, srv_bundle *b, mdl_synth *s, double t, 
         return;
     }
     memset(b->mv, 0, (size_t)b->nm); /* no marker drives it */
-    publish(p, b, t0, t0, flags, b->nm);
+    publish(p, b, s, t0, t0, flags, b->nm);
 }
 
 static void set_idle(srv_pipeline *p, int on, const char *why)

@@ -2,7 +2,8 @@
  *
  *   source thread:    drv_source_read (paced by the source) -> newest-marker slot (+ recording)
  *   synthesis thread: newest slot -> model marker order (the bundle's map) -> mdl_synth_frame
- *                     -> srv_frame_encode -> publish as the latest frame under `pub` -> wake()
+ *                     -> srv_frame_encode (+ mdl_synth_params -> srv_frame_encode_params)
+ *                     -> publish as the latest frame under `pub` -> wake()
  * A bundle whose kind reads no markers (a clock-driven kind, MDL_INPUT_CLOCK) is run on a clock at
  * its model's fps instead of at the source's frames. A bundle may also hold an *idle* synthesis:
  * the clock-driven kind of the same model file (so the same mesh, and no new hello when it takes
@@ -24,6 +25,7 @@
 #include "daemon_config.h"
 #include "drivers.h"
 #include "encode.h"
+#include "encode_params.h"
 #include "metrics.h"
 
 #include <pthread.h>
@@ -64,6 +66,9 @@ typedef struct srv_bundle {
     int nm;             /* model markers */
     int *map;           /* nm: the source marker feeding each model marker, or -1 */
     mdl_synth *idle;    /* the idle synthesis (a clock-driven kind of the same model), or NULL */
+    int layout_synth;   /* the params layout (gen) of synth's compact form, or -1 */
+    int layout_idle;    /* the same for idle */
+    float *prm;         /* the largest layout's floats: one frame's parameters */
     float *V;           /* nv x 3 */
     float *mk;          /* nm x 3, model marker order */
     uint8_t *mv;        /* nm */

@@ -1,6 +1,7 @@
 /* proto_stream.c - the /stream WebSocket protocol of meshsteerd (docs/PROTOCOL.md).
  *
- * Per session: hello (JSON) -> topology (binary) -> frames, newest first: when the session is
+ * Per session: hello (JSON) -> topology (binary) -> [params model, once per generation, for a
+ * session in the params encoding] -> frames, newest first: when the session is
  * writable it gets the latest published frame if it has not had it, so a slow client skips frames
  * (counted per session and in /metrics) instead of queueing them, and costs at most one frame in
  * lws's send buffer. One lws_write per WRITEABLE callback, from buffers with LWS_PRE headroom.
@@ -282,9 +283,18 @@ static int write_frame_or_nothing(srv_daemon *d, srv_session *s, struct lws *wsi
         s->reply_head = (k + 1) % SRV_REPLY_QUEUE;
         s->nreplies--;
         more = 1;
+    } else if (s->encoding == SRV_ENC_PARAMS && s->params_sent != s->gen->id) {
+        /* a params client gets the generation's compact form once, before its first frame */
+        r = lws_write(wsi, s->gen->params, s->gen->params_len, LWS_WRITE_BINARY);
+        srv_metrics_count(&d->metrics.bytes_out, s->gen->params_len);
+        s->params_sent = s->gen->id;
+        more = 1;
     } else if (f && f->seq > s->last_seq) {
-        unsigned char *m = f->msg[s->encoding];
-        size_t len = f->len[s->encoding];
+        int enc = s->encoding;
+        if (enc == SRV_ENC_PARAMS && f->len[enc] == 0)
+            enc = SRV_ENC_INT16; /* a frame of a kind without a compact form */
+        unsigned char *m = f->msg[enc];
+        size_t len = f->len[enc];
         account_skips(d, s, f->seq);
         uint64_t now = srv_now_us();
         srv_put_u32(m + SRV_FRAME_OFF_SKIPPED, s->skip_pending);

@@ -21,9 +21,10 @@ struct srv_publisher {
     srv_metrics *m;
     natsOptions *opts;
     natsConnection *nc;
-    natsSubscription *get_hello, *get_topology, *get_ping;
-    char subj_hello[SUBJECT_LEN], subj_topology[SUBJECT_LEN];
-    char subj_get_hello[SUBJECT_LEN], subj_get_topology[SUBJECT_LEN], subj_get_ping[SUBJECT_LEN];
+    natsSubscription *get_hello, *get_topology, *get_params, *get_ping;
+    char subj_hello[SUBJECT_LEN], subj_topology[SUBJECT_LEN], subj_params[SUBJECT_LEN];
+    char subj_get_hello[SUBJECT_LEN], subj_get_topology[SUBJECT_LEN], subj_get_params[SUBJECT_LEN];
+    char subj_get_ping[SUBJECT_LEN];
     char subj_frames[SRV_ENC_COUNT][SUBJECT_LEN];
 
     pthread_t thread;
@@ -90,9 +91,13 @@ static void on_get(natsConnection *nc, natsSubscription *sub, natsMsg *msg, void
             s = natsConnection_Publish(nc, reply, pong, (int)n);
         } else {
             srv_gen *g = srv_pipeline_current(p->pipe);
-            int hello = !strcmp(subject, p->subj_get_hello);
-            s = natsConnection_Publish(nc, reply, hello ? g->hello : g->topo,
-                                       (int)(hello ? g->hello_len : g->topo_len));
+            const unsigned char *data = g->topo;
+            size_t len = g->topo_len;
+            if (!strcmp(subject, p->subj_get_hello))
+                data = g->hello, len = g->hello_len;
+            else if (!strcmp(subject, p->subj_get_params)) /* MSPM; 0 layouts: the kind has none */
+                data = g->params, len = g->params_len;
+            s = natsConnection_Publish(nc, reply, data, (int)len);
             srv_gen_unref(g);
         }
         if (s == NATS_OK) {
@@ -167,10 +172,12 @@ static size_t copy_frame(srv_publisher *p, const srv_frame *f, size_t off[SRV_EN
     return at;
 }
 
+/* A new model: its hello, topology and params model (MSPM, for params subscribers). */
 static void announce(srv_publisher *p, srv_gen *g)
 {
     if (publish_one(p, p->subj_hello, g->hello, g->hello_len) == 0 &&
-        publish_one(p, p->subj_topology, g->topo, g->topo_len) == 0)
+        publish_one(p, p->subj_topology, g->topo, g->topo_len) == 0 &&
+        (!g->params_len || publish_one(p, p->subj_params, g->params, g->params_len) == 0))
         p->announced_gen = g->id;
 }
 
@@ -208,14 +215,16 @@ static void publish_latest(srv_publisher *p)
     }
     int any = 0;
     for (int e = 0; e < SRV_ENC_COUNT; e++) {
-        if (!len[e])
+        /* a frame with no params form goes to params subscribers as int16, as on /stream */
+        int src = e == SRV_ENC_PARAMS && !len[e] ? SRV_ENC_INT16 : e;
+        if (!len[src])
             continue;
-        unsigned char *msg = p->copy + off[e];
-        if (len[e] >= SRV_FRAME_HEADER) {
+        unsigned char *msg = p->copy + off[src];
+        if (src == e && len[e] >= SRV_FRAME_HEADER) {
             srv_put_u32(msg + SRV_FRAME_OFF_SKIPPED, p->skipped);
             srv_put_u64(msg + SRV_FRAME_OFF_SEND, srv_now_us());
         }
-        any |= publish_one(p, p->subj_frames[e], msg, len[e]) == 0;
+        any |= publish_one(p, p->subj_frames[e], msg, len[src]) == 0;
     }
     p->skipped = any ? 0 : p->skipped + 1;
 }
@@ -328,6 +337,8 @@ int srv_publisher_create(const char *urls, const char *prefix, srv_pipeline *pip
     snprintf(p->subj_topology, SUBJECT_LEN, "%s.topology", prefix);
     snprintf(p->subj_get_hello, SUBJECT_LEN, "%s.get.hello", prefix);
     snprintf(p->subj_get_topology, SUBJECT_LEN, "%s.get.topology", prefix);
+    snprintf(p->subj_params, SUBJECT_LEN, "%s.params", prefix);
+    snprintf(p->subj_get_params, SUBJECT_LEN, "%s.get.params", prefix);
     snprintf(p->subj_get_ping, SUBJECT_LEN, "%s.get.ping", prefix);
     for (int e = 0; e < SRV_ENC_COUNT; e++)
         snprintf(p->subj_frames[e], SUBJECT_LEN, "%s.frames.%s", prefix, srv_encoding_name(e));
@@ -361,6 +372,8 @@ int srv_publisher_create(const char *urls, const char *prefix, srv_pipeline *pip
     if (s == NATS_OK)
         s = natsConnection_Subscribe(&p->get_topology, p->nc, p->subj_get_topology, on_get, p);
     if (s == NATS_OK)
+        s = natsConnection_Subscribe(&p->get_params, p->nc, p->subj_get_params, on_get, p);
+    if (s == NATS_OK)
         s = natsConnection_Subscribe(&p->get_ping, p->nc, p->subj_get_ping, on_get, p);
     if (s != NATS_OK) {
         r = srv_err(err, -EIO, "nats: subscribe to %s.get.*: %s", prefix, natsStatus_GetText(s));
@@ -371,7 +384,7 @@ int srv_publisher_create(const char *urls, const char *prefix, srv_pipeline *pip
         goto fail;
     }
     p->started = 1;
-    srv_log(SRV_LOG_NOTICE, "nats: publishing to %s under %s.{hello,topology,frames.*}", urls,
+    srv_log(SRV_LOG_NOTICE, "nats: publishing to %s under %s.{hello,topology,params,frames.*}", urls,
             prefix);
     *out = p;
     return 0;
@@ -394,6 +407,7 @@ void srv_publisher_destroy(srv_publisher *p)
     atomic_store(&p->closing, 1);
     natsSubscription_Destroy(p->get_hello);
     natsSubscription_Destroy(p->get_topology);
+    natsSubscription_Destroy(p->get_params);
     natsSubscription_Destroy(p->get_ping);
     if (p->nc) {
         natsConnection_Close(p->nc);

@@ -6,7 +6,9 @@
 // It offers the viewer what its /stream WebSocket does: the hello (text) and topology (binary) –
 // fetched by request-reply as a late joiner (PREFIX.get.hello, PREFIX.get.topology), and again
 // whenever the daemon announces a new model on PREFIX.hello / PREFIX.topology – then the frames of
-// the chosen encoding (PREFIX.frames.ENCODING; switching encoding switches subscription). A ping is
+// the chosen encoding (PREFIX.frames.ENCODING; switching encoding switches subscription). For the
+// params encoding the params model (MSPM) comes the same way: PREFIX.get.params when joining or
+// switching to params, PREFIX.params when the daemon announces a new model. A ping is
 // a request on PREFIX.get.ping, answered with the daemon's clock as on /stream. Source controls
 // (pause, seek, speed) do not travel over NATS: the hello is passed on without them.
 // The client library is @nats-io/nats-core (npm), bundled for the browser into
@@ -56,11 +58,16 @@ export function natsLink(servers, prefix, encoding, handlers) {
     if (hello.source) hello.source = { ...hello.source, controls: [] };
     return hello;
   }
+  async function getParams() {
+    const pm = await nc.request(subject('get.params'), '', { timeout: 5000 });
+    handlers.onBinary(bytes(pm));
+  }
   async function join() {
     const hello = await nc.request(subject('get.hello'), '', { timeout: 5000 });
     handlers.onText(withoutControls(JSON.parse(hello.string())));
     const topo = await nc.request(subject('get.topology'), '', { timeout: 5000 });
     handlers.onBinary(bytes(topo));
+    if (enc === 'params') await getParams();
   }
   async function watchStatus() {
     for await (const s of nc.status()) {
@@ -85,6 +92,8 @@ export function natsLink(servers, prefix, encoding, handlers) {
         : handlers.onText(withoutControls(JSON.parse(m.string())))) });
       nc.subscribe(subject('topology'), { callback: (err, m) => (err ? fail(err)
         : handlers.onBinary(bytes(m))) });
+      nc.subscribe(subject('params'), { callback: (err, m) => (err ? fail(err)
+        : enc === 'params' && handlers.onBinary(bytes(m))) });
       subscribeFrames();
       watchStatus().catch(fail);
       await join().catch(fail);
@@ -102,7 +111,8 @@ export function natsLink(servers, prefix, encoding, handlers) {
           .then(m => handlers.onText(JSON.parse(m.string()))).catch(() => {});
       } else if (obj.type === 'encoding') {
         enc = obj.encoding;
-        subscribeFrames();
+        if (enc === 'params') getParams().then(subscribeFrames).catch(fail);
+        else subscribeFrames();
       }
       // pause/resume/seek/speed: not over NATS (the hello offered no controls)
     },

@@ -4,6 +4,7 @@
 export const PROTOCOL = 1;
 export const ENC_FLOAT32 = 0;
 export const ENC_INT16 = 1;
+export const ENC_PARAMS = 2; // the vertex block is per-piece parameters (params.js)
 export const FLAG_REFERENCE_LOST = 1;
 export const FLAG_CLAMPED = 2;
 export const FLAG_HELD = 4;
@@ -40,7 +41,8 @@ export function decodeTopology(buf) {
   return t;
 }
 
-// Decodes a frame into out.V (nv*3 Float32Array) and out.markers / out.valid; returns the header.
+// Decodes a frame into out.V (nv*3 Float32Array; not for params frames) and out.markers /
+// out.valid; returns the header.
 export function decodeFrame(buf, topo, out) {
   const dv = new DataView(buf);
   const h = {
@@ -68,6 +70,8 @@ export function decodeFrame(buf, topo, out) {
       out.V[i] = topo.qmin[a] + (dv.getInt16(off, true) + 32768) * s[a];
     }
     off = 56 + ((n3 * 2 + 3) & ~3);
+  } else if (h.encoding === ENC_PARAMS) { // out.V is left alone: params.js rebuilds it on the GPU
+    off = 56 + 8 + 4 * dv.getUint32(60, true);
   } else {
     throw new Error(`unknown encoding ${h.encoding}`);
   }

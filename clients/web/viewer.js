@@ -6,10 +6,12 @@
 // speed) appear for the controls the hello's source.controls offers; a screenshot button saves a PNG
 // and a record button a WebM clip (MediaRecorder). It reconnects by itself (the camera is kept) and
 // exposes its counters as window.meshsteer for tests. With ?nats=ws://HOST:PORT[,...] it reads the
-// same messages from a NATS server's WebSocket listener instead (nats_link.js).
+// same messages from a NATS server's WebSocket listener instead (nats_link.js). With the params
+// encoding (?encoding=params, docs/PROTOCOL.md 2b) params.js rebuilds positions and normals on the GPU.
 import * as THREE from './node_modules/three/build/three.module.js';
 import { Orbit } from './orbit.js';
 import * as P from './protocol.js';
+import * as PP from './params.js';
 
 const params = new URLSearchParams(location.search);
 const stats = {
@@ -19,7 +21,9 @@ const stats = {
   dropped: 0,         // skipped by the server (slow link) + replaced before they were drawn
   errors: 0, lastError: '',
   latencyMs: NaN,     // capture -> on screen, smoothed; NaN until the clock offset is known
-  fps: 0, generation: 0, encoding: params.get('encoding') === 'int16' ? 'int16' : 'float32',
+  fps: 0, generation: 0,
+  encoding: ['int16', 'params'].includes(params.get('encoding')) ? params.get('encoding') : 'float32',
+  paramsModels: 0, paramsFrames: 0, // params models (MSPM) and params frames received
   transport: '',      // 'websocket' (the daemon's /stream) or 'nats' (?nats=ws://...)
   coalesced: 0,       // NATS: frames that arrived but a newer one replaced before decoding
   nv: 0, nf: 0, nm: 0, lastSeq: 0, lastCaptureUs: 0, model: '',
@@ -83,14 +87,32 @@ const orbit = new Orbit(camera, renderer.domElement, () => { dirty = true; });
 orbit.update();
 
 let mesh = null, points = null, topo = null;
+let baseMaterial = null, paramsModel = null, paramsMesh = null; // params.js: the GPU rebuild
+// tests: the positions the params shader gives for a recent params frame (transform feedback):
+// the parameters of the last 120 params frames are kept by sequence number
+const recentParams = new Map();
+window.meshsteerParams = {
+  seqs: kind => Array.from(recentParams.keys())
+    .filter(q => paramsModel && paramsModel.layouts[recentParams.get(q).layout].kind === kind),
+  snapshot: seq => {
+    const r = paramsModel && recentParams.get(seq);
+    return r ? { seq, layout: r.layout, kind: paramsModel.layouts[r.layout].kind,
+                 V: Array.from(PP.readback(paramsModel, r.layout, r.prm)) } : null;
+  },
+  material: () => Boolean(mesh && paramsMesh && mesh.material === paramsMesh.material),
+  positions: () => paramsMesh ? Array.from(paramsMesh.positions(renderer)) : null, // what is drawn
+  drawnSeq: 0, // the params frame those positions are of
+};
 const decoded = { V: null, markers: null, valid: null };
 let pending = null; // newest decoded frame header not yet drawn
 
 const partsBox = document.getElementById('c-parts');
 const markersBox = document.getElementById('c-markers');
 const int16Box = document.getElementById('c-int16');
+const paramsBox = document.getElementById('c-params');
 const groundBox = document.getElementById('c-ground');
 int16Box.checked = stats.encoding === 'int16';
+paramsBox.checked = stats.encoding === 'params';
 
 function partColours(parts, nparts) {
   const c = new Float32Array(parts.length * 3), col = new THREE.Color();
@@ -114,6 +136,7 @@ function buildMesh(t) {
   g.computeBoundingSphere();
   const mat = new THREE.MeshStandardMaterial({ color: 0xc9b79c, roughness: 0.6, metalness: 0.0,
                                                vertexColors: partsBox.checked, side: THREE.DoubleSide });
+  baseMaterial = mat;
   mesh = new THREE.Mesh(g, mat);
   mesh.frustumCulled = false;
   mesh.castShadow = true;
@@ -204,14 +227,19 @@ function normals(g) {
 }
 
 partsBox.addEventListener('change', () => {
-  if (mesh) { mesh.material.vertexColors = partsBox.checked; mesh.material.needsUpdate = true; dirty = true; }
+  const mats = [baseMaterial, paramsMesh && paramsMesh.material];
+  for (const m of mats) if (m) { m.vertexColors = partsBox.checked; m.needsUpdate = true; }
+  dirty = true;
 });
 groundBox.addEventListener('change', () => { ground.visible = groundBox.checked; dirty = true; });
 markersBox.addEventListener('change', () => { if (points) { points.visible = markersBox.checked; dirty = true; } });
-int16Box.addEventListener('change', () => {
-  stats.encoding = int16Box.checked ? 'int16' : 'float32';
+function chooseEncoding(box) {
+  if (box.checked) (box === int16Box ? paramsBox : int16Box).checked = false;
+  stats.encoding = paramsBox.checked ? 'params' : int16Box.checked ? 'int16' : 'float32';
   send({ type: 'encoding', encoding: stats.encoding });
-});
+}
+int16Box.addEventListener('change', () => chooseEncoding(int16Box));
+paramsBox.addEventListener('change', () => chooseEncoding(paramsBox));
 
 // ---- clock: map performance.now() (ms) to the server's CLOCK_MONOTONIC (us) with ping/pong,
 // keeping the sample with the smallest round trip
@@ -343,9 +371,27 @@ function onBinary(buf) {
     topo = P.decodeTopology(buf);
     stats.topologies++;
     stats.nv = topo.nv; stats.nf = topo.nf;
+    if (paramsMesh) paramsMesh.dispose();
+    paramsMesh = paramsModel = null; // the new generation's params model follows, if asked for
+    recentParams.clear();
     buildMesh(topo);
+  } else if (PP.isParamsModel(buf) && topo) {
+    paramsModel = PP.decodeParamsModel(buf);
+    if (paramsModel.nv !== topo.nv) throw new Error('params model does not match the topology');
+    if (paramsMesh) paramsMesh.dispose();
+    const rep = Int32Array.from({ length: topo.nv }, (_, i) => i); // copies of one rest position
+    if (dupFrom) for (let k = 0; k < dupFrom.length; k++) rep[dupFrom[k]] = dupTo[k];
+    paramsMesh = new PP.ParamsMesh(THREE, paramsModel, baseMaterial, topo.faces, rep);
+    recentParams.clear();
+    stats.paramsModels++;
   } else if (k === 'frame' && topo) {
     const h = P.decodeFrame(buf, topo, decoded);
+    if (h.encoding === PP.ENC_PARAMS) {
+      h.layout = PP.decodeParamsBlock(new DataView(buf), paramsModel);
+      stats.paramsFrames++;
+      recentParams.set(h.seq, { layout: h.layout, prm: paramsModel.layouts[h.layout].paramTex.slice() });
+      if (recentParams.size > 120) recentParams.delete(recentParams.keys().next().value);
+    }
     stats.frames++;
     stats.dropped += h.skipped;
     if (pending) stats.dropped++; // replaced before it was drawn
@@ -375,10 +421,19 @@ let fpsCount = 0, fpsT0 = performance.now();
 function draw() {
   requestAnimationFrame(draw);
   if (pending && mesh) {
-    const pos = mesh.geometry.attributes.position;
-    pos.array.set(decoded.V);
-    pos.needsUpdate = true;
-    normals(mesh.geometry);
+    if (pending.encoding === PP.ENC_PARAMS) { // the GPU rebuilds the mesh
+      paramsMesh.update(renderer, pending.layout);
+      mesh.material = paramsMesh.material;
+      mesh.customDepthMaterial = paramsMesh.depth;
+      window.meshsteerParams.drawnSeq = pending.seq;
+    } else {
+      mesh.material = baseMaterial;
+      mesh.customDepthMaterial = undefined;
+      const pos = mesh.geometry.attributes.position;
+      pos.array.set(decoded.V);
+      pos.needsUpdate = true;
+      normals(mesh.geometry);
+    }
     const mp = points.geometry.attributes.position;
     let n = 0;
     for (let i = 0; i < topo.nm; i++)

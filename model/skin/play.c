@@ -39,6 +39,12 @@ typedef struct skin_play {
     double *Ta, *Tb;   /* nb x 12: walk frames at - 1 and at */
     long long at;      /* -1: not started */
     float *wq, *wt;    /* 2 x nb x 4, 2 x nb x 3: Ta, Tb as quaternions and translations */
+    /* the compact form (mdl_synth_params): one shape (the rest pose), a piece per bone */
+    float *prm;        /* nb x 7: the last frame's quaternion and translation of each bone */
+    int have_params;
+    int part_off[2], nmodes[1], mode_off[1];
+    int *inst_part;    /* nb zeros */
+    int *slot_entry, *slot_inst; /* nv x K: the vertex and its bone, -1 where the weight is 0 */
 } skin_play;
 
 void mdl__skin_synth_destroy(void *state)
@@ -59,6 +65,10 @@ void mdl__skin_synth_destroy(void *state)
     free(p->Tb);
     free(p->wq);
     free(p->wt);
+    free(p->prm);
+    free(p->inst_part);
+    free(p->slot_entry);
+    free(p->slot_inst);
     free(p);
 }
 
@@ -81,7 +91,12 @@ int mdl__skin_synth_create(const mdl_model *m, const void *impl, void **state, c
     p->q = mdl__calloc(4 * nt, sizeof *p->q);
     p->tr = mdl__calloc(3 * nt, sizeof *p->tr);
     p->M = mdl__calloc(12 * (size_t)k->nb, sizeof *p->M);
-    if (!p->rest || !p->bone || !p->w || !p->q || !p->tr || !p->M) {
+    p->prm = mdl__calloc(7 * (size_t)k->nb, sizeof *p->prm);
+    p->inst_part = mdl__calloc((size_t)k->nb, sizeof *p->inst_part);
+    p->slot_entry = mdl__calloc(nk + 1, sizeof *p->slot_entry);
+    p->slot_inst = mdl__calloc(nk + 1, sizeof *p->slot_inst);
+    if (!p->rest || !p->bone || !p->w || !p->q || !p->tr || !p->M || !p->prm || !p->inst_part ||
+        !p->slot_entry || !p->slot_inst) {
         mdl__skin_synth_destroy(p);
         return mdl__err(err, -ENOMEM, "skin synthesis: out of memory");
     }
@@ -89,6 +104,12 @@ int mdl__skin_synth_create(const mdl_model *m, const void *impl, void **state, c
     memcpy(p->bone, k->bone, nk * sizeof *p->bone);
     for (size_t i = 0; i < nk; i++)
         p->w[i] = (float)k->w[i];
+    for (size_t i = 0; i < nk; i++) {
+        int used = p->w[i] != 0;
+        p->slot_entry[i] = used ? (int)(i / (size_t)k->K) : -1;
+        p->slot_inst[i] = used ? p->bone[i] : -1;
+    }
+    p->part_off[1] = k->nv;
     for (size_t f = 0; f < nt; f++) {
         double q[4];
         mdl__mat_to_quat(k->T + 12 * f, q);
@@ -214,6 +235,12 @@ int mdl__skin_synth_frame(void *state, const mdl_synth_input *in, float *V, mdl_
         M[8] = 1 - 2 * (x * x + y * y);
         for (int c = 0; c < 3; c++)
             M[9 + c] = (1 - al) * ta[c] + al * tb[c];
+        float *pr = p->prm + 7 * (size_t)j;
+        pr[0] = w;
+        pr[1] = x;
+        pr[2] = y;
+        pr[3] = z;
+        memcpy(pr + 4, M + 9, 3 * sizeof *M);
     }
     for (int i = 0; i < p->nv; i++) {
         const float *u = p->rest + 3 * (size_t)i;
@@ -228,5 +255,34 @@ int mdl__skin_synth_frame(void *state, const mdl_synth_input *in, float *V, mdl_
         }
         memcpy(V + 3 * (size_t)i, o, sizeof o);
     }
+    p->have_params = 1;
+    return 0;
+}
+
+int mdl__skin_synth_params_layout(const void *state, mdl_params_layout *out)
+{
+    const skin_play *p = state;
+    out->ninst = p->nb;
+    out->nparts = 1;
+    out->part_off = p->part_off;
+    out->mean = p->rest;
+    out->nmodes = p->nmodes;
+    out->mode_off = p->mode_off;
+    out->modes = p->rest; /* no modes: never read */
+    out->inst_part = p->inst_part;
+    out->slots = p->K;
+    out->slot_entry = p->slot_entry;
+    out->slot_inst = p->slot_inst;
+    out->slot_w = p->w;
+    out->nparams = 7 * p->nb;
+    return 0;
+}
+
+int mdl__skin_synth_params(const void *state, float *out)
+{
+    const skin_play *p = state;
+    if (!p->have_params)
+        return -EAGAIN;
+    memcpy(out, p->prm, 7 * (size_t)p->nb * sizeof *out);
     return 0;
 }

@@ -226,6 +226,8 @@ int mdl__skin_synth_create(const mdl_model *m, const void *impl, void **state, c
 int mdl__skin_synth_frame(void *state, const mdl_synth_input *in, float *V, mdl_synth_info *info);
 void mdl__skin_synth_reset(void *state);
 void mdl__skin_synth_destroy(void *state);
+int mdl__skin_synth_params_layout(const void *state, mdl_params_layout *out);
+int mdl__skin_synth_params(const void *state, float *out);
 
 const mdl_kind_ops mdl__skin_kind = {
     .id = MDL_KIND_SKIN,
@@ -242,6 +244,8 @@ const mdl_kind_ops mdl__skin_kind = {
     .synth_frame = mdl__skin_synth_frame,
     .synth_reset = mdl__skin_synth_reset,
     .synth_destroy = mdl__skin_synth_destroy,
+    .synth_params_layout = mdl__skin_synth_params_layout,
+    .synth_params = mdl__skin_synth_params,
     .eval = mdl__skin_eval,
 };
 

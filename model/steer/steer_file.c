@@ -699,6 +699,16 @@ static void steer_synth_reset(void *state)
     mdl__steer_synth_reset(state);
 }
 
+static int steer_synth_params_layout(const void *state, mdl_params_layout *out)
+{
+    return mdl__steer_synth_params_layout(state, out);
+}
+
+static int steer_synth_params(const void *state, float *out)
+{
+    return mdl__steer_synth_params(state, out);
+}
+
 static void steer_synth_destroy(void *state)
 {
     mdl__steer_synth_destroy(state);
@@ -719,6 +729,8 @@ const mdl_kind_ops mdl__steer_kind = {
     .synth_frame = steer_synth_frame,
     .synth_reset = steer_synth_reset,
     .synth_destroy = steer_synth_destroy,
+    .synth_params_layout = steer_synth_params_layout,
+    .synth_params = steer_synth_params,
     .eval = mdl__steer_eval,
 };
 

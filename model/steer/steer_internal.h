@@ -144,6 +144,9 @@ void mdl__steer_synth_destroy(mdl_steer_synth *s);
 int mdl__steer_synth_frame(mdl_steer_synth *s, const float *markers, const uint8_t *valid,
                            float *Vout, mdl_synth_info *info);
 void mdl__steer_synth_reset(mdl_steer_synth *s);
+/* The compact form of the synthesis (model.h, mdl_params_layout / mdl_synth_params). */
+int mdl__steer_synth_params_layout(const mdl_steer_synth *s, mdl_params_layout *out);
+int mdl__steer_synth_params(const mdl_steer_synth *s, float *out);
 /* Makes s use the plain x86-64 variant of synthesis even on an AVX2 machine (tests: both
  * variants must give identical frames). */
 void mdl__steer_synth_portable(mdl_steer_synth *s);

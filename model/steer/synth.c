@@ -112,6 +112,13 @@ struct mdl_steer_synth {
     double *sloc, *spos;       /* 4 per entry (xyz, 0): local shape, placed position (body frame) */
     int *oov_e;                /* m->order_ov as entries of sov */
     double *ymom;              /* per instance: sum y (3) and sum |y|^2 over its entries */
+    /* the compact form (mdl_synth_params): the blend's transforms of the last frame and the
+     * layout's blend slots (eq. 8 per vertex: entry, instance, weight) */
+    float *pW;                 /* ninst x 12: W row-major, then tw (the blend loop's floats) */
+    int have_params;
+    int nslots;
+    int *slot_entry, *slot_inst;
+    float *slot_w;
 };
 
 void mdl__steer_synth_destroy(mdl_steer_synth *s)
@@ -163,6 +170,10 @@ void mdl__steer_synth_destroy(mdl_steer_synth *s)
     free(s->spos);
     free(s->oov_e);
     free(s->ymom);
+    free(s->pW);
+    free(s->slot_entry);
+    free(s->slot_inst);
+    free(s->slot_w);
     free(s);
 }
 
@@ -422,6 +433,82 @@ static int synth_overlap_entries(mdl_steer_synth *s, char *err)
     return 0;
 }
 
+/* Step 8: the compact form's blend slots (model.h, mdl_params_layout): the blend entries of eq. (8)
+ * of every vertex as (entry of its part's shape, instance, weight), padded to the largest count,
+ * and room for the blend's transforms of each frame. */
+static int synth_param_slots(mdl_steer_synth *s, char *err)
+{
+    const struct mdl_steer *m = s->m;
+    int S = 1;
+    for (int v = 0; v < m->nv; v++)
+        if (m->blend_off[v + 1] - m->blend_off[v] > S)
+            S = m->blend_off[v + 1] - m->blend_off[v];
+    s->nslots = S;
+    size_t n = (size_t)m->nv * S;
+    s->slot_entry = mdl__calloc(n, sizeof(int));
+    s->slot_inst = mdl__calloc(n, sizeof(int));
+    s->slot_w = mdl__calloc(n, sizeof(float));
+    s->pW = mdl__calloc((size_t)m->ninst * 12 + 1, sizeof(float));
+    if (!s->slot_entry || !s->slot_inst || !s->slot_w || !s->pW)
+        return synth_oom(err);
+    for (int v = 0; v < m->nv; v++) {
+        int at = 0;
+        for (int b = m->blend_off[v]; b < m->blend_off[v + 1]; b++, at++) {
+            int i = m->blend_inst[b];
+            s->slot_entry[(size_t)v * S + at] = m->pv_off[m->inst_part[i]] + m->blend_local[b];
+            s->slot_inst[(size_t)v * S + at] = i;
+            s->slot_w[(size_t)v * S + at] = m->blend_w[b];
+        }
+        for (; at < S; at++) {
+            s->slot_entry[(size_t)v * S + at] = -1;
+            s->slot_inst[(size_t)v * S + at] = -1;
+        }
+    }
+    return 0;
+}
+
+int mdl__steer_synth_params_layout(const mdl_steer_synth *s, mdl_params_layout *out)
+{
+    const struct mdl_steer *m = s->m;
+    out->ninst = m->ninst;
+    out->nparts = m->nparts;
+    out->part_off = m->pv_off;
+    out->mean = m->part_mean;
+    out->nmodes = m->pmodes;
+    out->mode_off = m->pm_off;
+    out->modes = m->part_modes;
+    out->inst_part = m->inst_part;
+    out->slots = s->nslots;
+    out->slot_entry = s->slot_entry;
+    out->slot_inst = s->slot_inst;
+    out->slot_w = s->slot_w;
+    out->nparams = 7 * m->ninst + s->inst_lam[m->ninst];
+    return 0;
+}
+
+int mdl__steer_synth_params(const mdl_steer_synth *s, float *out)
+{
+    const struct mdl_steer *m = s->m;
+    if (!s->have_params)
+        return -EAGAIN;
+    for (int i = 0; i < m->ninst; i++) {
+        const float *W = s->pW + 12 * (size_t)i;
+        double R[9], q[4];
+        for (int c = 0; c < 9; c++)
+            R[c] = W[c];
+        mdl__mat_to_quat(R, q);
+        double nq = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+        for (int c = 0; c < 4; c++)
+            *out++ = (float)(q[c] / nq);
+        for (int c = 0; c < 3; c++)
+            *out++ = W[9 + c];
+        int k = m->pmodes[m->inst_part[i]];
+        for (int a = 0; a < k; a++)
+            *out++ = (float)s->lam[s->inst_lam[i] + a];
+    }
+    return 0;
+}
+
 int mdl__steer_synth_create(const struct mdl_steer *m, mdl_steer_synth **out, char *err)
 {
     *out = NULL;
@@ -442,7 +529,7 @@ int mdl__steer_synth_create(const struct mdl_steer *m, mdl_steer_synth **out, ch
     if ((rc = synth_scratch(s, err)) || (rc = synth_shared_vertices(s, err)) ||
         (rc = synth_instance_offsets(s, err)) || (rc = synth_soa_layout(s, err)) ||
         (rc = synth_blend_lists(s, err)) || (rc = synth_marker_entries(s, err)) ||
-        (rc = synth_overlap_entries(s, err))) {
+        (rc = synth_overlap_entries(s, err)) || (rc = synth_param_slots(s, err))) {
         mdl__steer_synth_destroy(s);
         return rc;
     }
@@ -927,6 +1014,8 @@ int mdl__steer_synth_frame(mdl_steer_synth *s, const float *markers, const uint8
         for (int a = 0; a < k; a++)
             lam[a] = (float)s->lam[s->inst_lam[i] + a];
         s->place(n8, k, mean, V, lam, iw, W, tw, lx, ly, lz);
+        memcpy(s->pW + 12 * (size_t)i, W, sizeof W);
+        memcpy(s->pW + 12 * (size_t)i + 9, tw, sizeof tw);
         const int *bj = s->bl_j, *bv = s->bl_v;
         for (int e = s->bl_off[2 * i]; e < s->bl_off[2 * i + 1]; e++) { /* its own vertices */
             int j = bj[e];
@@ -943,5 +1032,6 @@ int mdl__steer_synth_frame(mdl_steer_synth *s, const float *markers, const uint8
             o[2] += lz[j];
         }
     }
+    s->have_params = 1;
     return 0;
 }

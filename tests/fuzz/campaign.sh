@@ -71,6 +71,7 @@ seeds_of() {
     labels) local_seeds=(tests/server/data/labels_*.txt) ;;
     wsframe) local_seeds=(tests/server/data/ws_stream.bin) ;;
     osc_capture) local_seeds=(recordings/example-trot.osc) ;;
+    params) local_seeds=(tests/server/data/params_model.bin) ;;
     esac
     for f in "${local_seeds[@]}"; do [ -f "$f" ] && echo "$f"; done
     if [ -d "$data" ]; then

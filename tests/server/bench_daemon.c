@@ -4,8 +4,9 @@
  *   end-to-end latency (capture -> receipt) p50/p99, frames received vs sent, frames/s per client,
  *   the daemon's capture -> send latency, from the frames' stamps and from /metrics (the
  *   histogram's change over the row, as bucket bounds);
- * then the largest client count at which every int16 client still gets 60 fps (>= 95 % of the
- * source's frames), searched upwards.
+ * then the largest client count at which every client still gets 60 fps (>= 95 % of the
+ * source's frames), searched upwards, for int16 and for the params encoding (the compact
+ * parameter stream: docs/PROTOCOL.md 2b) in the same run; every row gives the bytes per frame.
  * Then, in the same run, the same through NATS (issue 14 §2): a three-node nats-server cluster on
  * loopback (nats_cluster.h), the daemon started again with --publish to node 1, and
  * meshsteer-load --nats subscribers spread over nodes 2 and 3: the same rows, and the largest
@@ -129,9 +130,9 @@ static void print_row(const row *r)
     char metrics[64] = "-"; /* the /metrics histogram is of WebSocket sends */
     if (!r->nats)
         snprintf(metrics, sizeof metrics, "<= %g / <= %g ms", r->m50, r->m99);
-    printf("| %d | %s%s | %.0f / %.0f (%.1f %%) | %.1f (slowest %.1f) | %.2f ms | %.2f ms | "
+    printf("| %d | %s%s | %.0f | %.0f / %.0f (%.1f %%) | %.1f (slowest %.1f) | %.2f ms | %.2f ms | "
            "%.2f / %.2f ms | %s | %.0f |\n",
-           r->clients, r->enc, r->nats ? " (NATS)" : "", recv, sent,
+           r->clients, r->enc, r->nats ? " (NATS)" : "", num(j, "bytes_per_frame"), recv, sent,
            sent > 0 ? 100 * recv / sent : 0, num(j, "fps_mean"), num(j, "fps_min"),
            num(j, "e2e_p50_ms"), num(j, "e2e_p99_ms"), num(j, "server_p50_ms"),
            num(j, "server_p99_ms"), metrics, r->synth_busy);
@@ -190,9 +191,9 @@ static void bench_nats(const char *meshsteerd, const char *load, const char *con
     printf("\nThrough NATS: the daemon publishes to node 1 of a 3-node nats-server %s cluster on "
            "loopback; subscribers (one NATS connection each) alternate between nodes 2 and 3\n\n",
            "2.9");
-    printf("| subscribers | encoding | received / sent | frames/s per subscriber | e2e p50 | "
-           "e2e p99 | capture->publish p50 / p99 (frames) | - | synth_busy drops |\n"
-           "|---:|---|---|---|---:|---:|---|---|---:|\n");
+    printf("| subscribers | encoding | bytes/frame | received / sent | frames/s per subscriber | "
+           "e2e p50 | e2e p99 | capture->publish p50 / p99 (frames) | - | synth_busy drops |\n"
+           "|---:|---|---:|---|---|---:|---:|---|---|---:|\n");
     row rows[3] = {{1, "int16", urls, NULL, 0, 0, 0}, {64, "int16", urls, NULL, 0, 0, 0},
                    {64, "float32", urls, NULL, 0, 0, 0}};
     for (int i = 0; i < 3; i++) {
@@ -282,28 +283,39 @@ int main(int argc, char **argv)
            "%ld CPUs, load average %.2f at start; scheduling %s\n\n",
            secs, sysconf(_SC_NPROCESSORS_ONLN), load1,
            fifo ? "SCHED_FIFO 10 (daemon and load client)" : "default (SCHED_OTHER)");
-    printf("| clients | encoding | received / sent | frames/s per client | e2e p50 | e2e p99 | "
-           "capture->send p50 / p99 (frames) | capture->send p50 / p99 (/metrics) | "
-           "synth_busy drops |\n|---:|---|---|---|---:|---:|---|---|---:|\n");
-    row rows[4] = {{1, "int16", NULL, NULL, 0, 0, 0}, {1, "float32", NULL, NULL, 0, 0, 0},
-                   {64, "int16", NULL, NULL, 0, 0, 0}, {64, "float32", NULL, NULL, 0, 0, 0}};
-    for (int i = 0; i < 4; i++) {
+    printf("| clients | encoding | bytes/frame | received / sent | frames/s per client | e2e p50 | "
+           "e2e p99 | capture->send p50 / p99 (frames) | capture->send p50 / p99 (/metrics) | "
+           "synth_busy drops |\n|---:|---|---:|---|---|---:|---:|---|---|---:|\n");
+    enum { NROWS = 6 };
+    row rows[NROWS] = {{1, "int16", NULL, NULL, 0, 0, 0},   {1, "float32", NULL, NULL, 0, 0, 0},
+                       {1, "params", NULL, NULL, 0, 0, 0},  {64, "int16", NULL, NULL, 0, 0, 0},
+                       {64, "float32", NULL, NULL, 0, 0, 0}, {64, "params", NULL, NULL, 0, 0, 0}};
+    for (int i = 0; i < NROWS; i++) {
         run_row(load, &rows[i], secs);
         print_row(&rows[i]);
     }
-    /* the largest int16 client count that holds 60 fps */
-    static const int steps[] = {96, 128, 160, 192, 256, 320, 384, 448, 512, 640, 768, 1024};
-    int best = holds_60(&rows[2])
+    /* the largest client counts that hold 60 fps, int16 then params */
+    static const int steps[] = {96, 128, 160, 192, 256, 320, 384, 448, 512, 640, 768, 1024,
+                                1280, 1536, 2048};
+    int best = holds_60(&rows[3])
                    ? search_60(load, NULL, "int16", steps, NSTEPS(steps), secs, max_tried)
                    : 0;
+    int best_p = holds_60(&rows[5])
+                     ? search_60(load, NULL, "params", steps, NSTEPS(steps), secs, max_tried)
+                     : 0;
     printf("\nlargest int16 client count holding 60 fps (every client >= 57 frames/s): %d%s\n",
            best, best >= max_tried ? " (the largest tried)" : "");
-    double p99_1 = num(rows[0].j, "e2e_p99_ms"), p99_64 = num(rows[2].j, "e2e_p99_ms");
+    printf("largest params client count holding 60 fps (every client >= 57 frames/s): %d%s\n",
+           best_p, best_p >= max_tried ? " (the largest tried)" : "");
+    double bi = num(rows[0].j, "bytes_per_frame"), bp = num(rows[2].j, "bytes_per_frame");
+    printf("bytes per frame: int16 %.0f, params %.0f: %.1fx smaller (goal >= 20x: %s)\n", bi, bp,
+           bp > 0 ? bi / bp : 0, bp > 0 && bi / bp >= 20 ? "met" : "not met");
+    double p99_1 = num(rows[0].j, "e2e_p99_ms"), p99_64 = num(rows[3].j, "e2e_p99_ms");
     printf("goal p99 < 5 ms with 1 client (int16): %.2f ms, %s\n", p99_1,
            p99_1 < 5 ? "met" : "not met");
     printf("goal p99 < 20 ms with 64 clients (int16): %.2f ms, %s\n", p99_64,
            p99_64 < 20 ? "met" : "not met");
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < NROWS; i++)
         cJSON_Delete(rows[i].j);
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 10000), 0);
     bench_nats(meshsteerd, load, args, secs, max_tried);

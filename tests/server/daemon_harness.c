@@ -66,6 +66,16 @@ void harness_dir(harness *h)
     ASSERT(mkdtemp(h->dir));
 }
 
+char *harness_read(const char *path, char *buf, size_t cap)
+{
+    FILE *f = fopen(path, "r");
+    ASSERT(f);
+    size_t got = fread(buf, 1, cap - 1, f);
+    fclose(f);
+    buf[got] = '\0';
+    return buf;
+}
+
 pid_t harness_spawn(const char *const *argv, const char *out_path)
 {
     pid_t pid = fork();

@@ -49,5 +49,8 @@ int harness_run(const char *const *argv, const char *out_path);
 /* The same without waiting: returns the child's pid, for harness_wait. */
 pid_t harness_spawn(const char *const *argv, const char *out_path);
 int harness_wait(pid_t pid);
+/* The first cap - 1 bytes of a file (the output of harness_run) into buf, NUL-terminated; exits on
+ * a missing file. Returns buf. */
+char *harness_read(const char *path, char *buf, size_t cap);
 
 #endif

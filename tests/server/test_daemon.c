@@ -39,6 +39,7 @@
 #include "model.h"
 #include "test.h"
 #include "wsclient.h"
+#include "params.h"
 
 #include <arpa/inet.h>
 #include <cjson/cJSON.h>
@@ -115,12 +116,12 @@ static void run_until(struct lws_context *ctx, wsc *c, uint64_t frames, int text
 /* Frames received by A (float32) and B (int16) with the same sequence number decode to the same
  * mesh within the int16 bound of PROTOCOL.md; returns how many were compared, *worst the largest
  * error as a fraction of the bound. */
-static int compare_encodings(const wsc *A, const wsc *B, double *worst)
+static int compare_encodings_as(const wsc *A, const wsc *B, int enc, double *worst)
 {
     int compared = 0;
     for (int i = 0; i < B->nframes; i++) {
         const wsc_frame *q = &B->frames[i];
-        if (q->encoding != 1)
+        if (q->encoding != enc)
             continue;
         for (int j = 0; j < A->nframes; j++) {
             const wsc_frame *p = &A->frames[j];
@@ -138,6 +139,11 @@ static int compare_encodings(const wsc *A, const wsc *B, double *worst)
         }
     }
     return compared;
+}
+
+static int compare_encodings(const wsc *A, const wsc *B, double *worst)
+{
+    return compare_encodings_as(A, B, 1, worst);
 }
 
 static void expect_str(const char *got, const char *want)
@@ -510,6 +516,98 @@ static void scenario_kinds(void)
     wsc_free(A);
     wsc_free(W);
     wsc_free(B);
+}
+
+/* ------------------------------------------------------------------ params */
+
+static size_t frame_bytes(const wsc *c, int enc, int nparams)
+{
+    size_t vb = enc == 0 ? 12 * (size_t)c->nv : enc == 1 ? 6 * (size_t)c->nv : 8 + 4 * (size_t)nparams;
+    return 56 + ((vb + 3) & ~(size_t)3) + 12 * (size_t)c->nm + (((size_t)c->nm + 3) & ~(size_t)3);
+}
+
+/* The params encoding (docs/PROTOCOL.md 2b): a client that asks for it gets the params model
+ * (MSPM) once, then encoding-2 frames which, rebuilt by clients/params.c, match the float32
+ * frames of the same sequence number within the int16 bound, for the steering model's tracked
+ * frames (layout 0) and its skin's idle frames (layout 1); a reload sends a new MSPM. */
+static void scenario_params(const char *load)
+{
+    char model[1200], source[1200];
+    snprintf(model, sizeof model, "%s/two-kinds.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?start=170", H.dir); /* 70 frames, then idle */
+    const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0", "-v", NULL};
+    harness_start(&H, meshsteerd, args);
+    struct lws_context *ctx = wsc_context();
+    wsc *A = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *P = wsc_connect(ctx, H.port, NULL, 1);
+    wsc_send(P, "{\"type\":\"encoding\",\"encoding\":\"params\",\"id\":3}");
+    want wp = {P, 150, 0, 0, 0, 2};
+    ASSERT(wsc_run(ctx, 20000, enough, &wp));
+    ASSERT_INT_EQ(P->protocol_errors, 0);
+    ASSERT_INT_EQ(A->protocol_errors, 0);
+    ASSERT_INT_EQ(P->params_msgs, 1);
+    ASSERT(P->params);
+    ASSERT_INT_EQ(P->params->nlayouts, 2);
+    ASSERT_INT_EQ(P->params->layout[0].kind, 1); /* steer, then its idle skin */
+    ASSERT_INT_EQ(P->params->layout[1].kind, 3);
+    cJSON *h = cJSON_Parse(P->hello);
+    ASSERT(h);
+    const cJSON *pk = cJSON_GetObjectItem(cJSON_GetObjectItem(h, "model"), "params");
+    ASSERT_INT_EQ(cJSON_GetArraySize(pk), 2);
+    ASSERT_INT_EQ(cJSON_GetObjectItem(cJSON_GetArrayItem(pk, 0), "floats")->valueint,
+                  P->params->layout[0].nparams);
+    cJSON_Delete(h);
+    int tracked = 0, idle = 0;
+    for (int i = 0; i < P->nframes; i++)
+        if (P->frames[i].encoding == 2)
+            *(P->frames[i].flags & 8 ? &idle : &tracked) += 1;
+    double worst = 0;
+    int compared = compare_encodings_as(A, P, 2, &worst);
+    size_t b0 = frame_bytes(P, 0, 0), b1 = frame_bytes(P, 1, 0);
+    size_t bs = frame_bytes(P, 2, P->params->layout[0].nparams);
+    size_t bk = frame_bytes(P, 2, P->params->layout[1].nparams);
+    printf("params: %d tracked + %d idle params frames, %d compared with float32, worst %.3f of "
+           "the int16 bound; MSPM %zu bytes; bytes/frame float32 %zu, int16 %zu, params %zu (steer, "
+           "%.1fx smaller than int16), %zu (skin, %.1fx)\n",
+           tracked, idle, compared, worst, P->params_len, b0, b1, bs, (double)b1 / bs, bk,
+           (double)b1 / bk);
+    ASSERT_INT_GE(tracked, 20);
+    ASSERT_INT_GE(idle, 20);
+    ASSERT_INT_GE(compared, 40);
+    ASSERT(bs * 10 < b1);
+    /* meshsteer-load -e params: every connection gets its params model before params frames,
+     * and the bytes per frame are the params frame's (the steering model's, while it tracks) */
+    if (load) {
+        char port[16], out[1200];
+        snprintf(port, sizeof port, "%d", H.port);
+        snprintf(out, sizeof out, "%s/load-params.json", H.dir);
+        const char *argv[] = {load, "-n", "3", "-t", "1", "-w", "0.3", "-e", "params", "-p", port,
+                              "-j", NULL};
+        ASSERT_INT_EQ(harness_run(argv, out), 0);
+        char buf[2048];
+        harness_read(out, buf, sizeof buf);
+        cJSON *j = cJSON_Parse(strchr(buf, '{') ? strchr(buf, '{') : buf);
+        ASSERT(j);
+        double bpf = cJSON_GetObjectItem(j, "bytes_per_frame")->valuedouble;
+        printf("params: meshsteer-load -e params: %g bytes/frame, %g frames\n", bpf,
+               cJSON_GetObjectItem(j, "received")->valuedouble);
+        ASSERT(cJSON_GetObjectItem(j, "received")->valuedouble > 30);
+        ASSERT(bpf == (double)bs || bpf == (double)bk); /* steer, or the skin once idle */
+        cJSON_Delete(j);
+    }
+    /* a reload: a new hello, topology and params model, then params frames of the new generation */
+    ASSERT_INT_EQ(kill(H.pid, SIGHUP), 0);
+    want wh = {P, 0, 0, 2, 0, -1};
+    ASSERT(wsc_run(ctx, 20000, enough, &wh));
+    run_until(ctx, P, P->total_frames + 10, 0, 15000);
+    ASSERT_INT_EQ(P->params_msgs, 2);
+    ASSERT_INT_EQ(P->params->generation, P->frames[P->nframes - 1].generation);
+    ASSERT_INT_EQ(P->frames[P->nframes - 1].encoding, 2);
+    ASSERT_INT_EQ(P->protocol_errors, 0);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(A);
+    wsc_free(P);
 }
 
 /* ------------------------------------------------------------------ slow */
@@ -1140,10 +1238,14 @@ static void scenario_horse(const char *meshsteer)
     ASSERT(ctx);
     wsc *A = wsc_connect(ctx, H.port, NULL, 1);
     wsc *B = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *C = wsc_connect(ctx, H.port, NULL, 1);
     wsc_send(B, "{\"type\":\"encoding\",\"encoding\":\"int16\"}");
+    wsc_send(C, "{\"type\":\"encoding\",\"encoding\":\"params\"}");
     run_until(ctx, A, 120, 0, 20000);
-    want wb = {B, 120, 0, 0, 0, 1};
+    want wb = {B, 120, 0, 0, 0, 1}, wc = {C, 120, 0, 0, 0, 2};
     ASSERT(wsc_run(ctx, 20000, enough, &wb));
+    ASSERT(wsc_run(ctx, 20000, enough, &wc));
+    ASSERT_INT_EQ(C->protocol_errors, 0);
     ASSERT_INT_EQ(A->protocol_errors, 0);
     ASSERT_INT_EQ(B->protocol_errors, 0);
 
@@ -1264,6 +1366,15 @@ static void scenario_horse(const char *meshsteer)
     int compared = compare_encodings(A, B, &worst);
     printf("horse: encodings agree on %d frames, worst error %.3f of the bound\n", compared, worst);
     ASSERT(compared >= 60);
+    /* the params encoding too (docs/PROTOCOL.md 2b), at a twentieth of int16's bytes at most */
+    worst = 0;
+    compared = compare_encodings_as(A, C, 2, &worst);
+    size_t b16 = frame_bytes(B, 1, 0), bp = frame_bytes(C, 2, C->params->layout[0].nparams);
+    printf("horse: params frames agree with float32 on %d frames, worst error %.3f of the int16 "
+           "bound; %zu bytes per frame against int16's %zu (%.1fx); params model %zu bytes\n",
+           compared, worst, bp, b16, (double)b16 / bp, C->params_len);
+    ASSERT(compared >= 60);
+    ASSERT(bp * 20 <= b16);
 
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_drops_total{reason=\"synth_failed\"}"), 0);
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_partial_writes_total"), 0);
@@ -1271,6 +1382,7 @@ static void scenario_horse(const char *meshsteer)
     lws_context_destroy(ctx);
     wsc_free(A);
     wsc_free(B);
+    wsc_free(C);
     mdl_meshseq_destroy(gt);
     mdl_markers_destroy(mk);
 }
@@ -1290,9 +1402,22 @@ static void scenario_invalid(void)
     struct lws_context *ctx = wsc_context();
     ASSERT(ctx);
     wsc *A = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *Q = wsc_connect(ctx, H.port, NULL, 1); /* a params client */
+    wsc_send(Q, "{\"type\":\"encoding\",\"encoding\":\"params\"}");
     run_until(ctx, A, 25, 0, 5000); /* 25 fps: a second of frames */
     ASSERT_INT_EQ(A->protocol_errors, 0);
     const float *rest = (const float *)(A->topo + 56);
+    /* synthesis never made a frame, so there are no parameters: the params client gets the
+     * rest pose as int16 frames (docs/PROTOCOL.md 3), after its params model */
+    want wq = {Q, 10, 0, 0, 0, 1};
+    ASSERT(wsc_run(ctx, 5000, enough, &wq));
+    ASSERT_INT_EQ(Q->protocol_errors, 0);
+    ASSERT_INT_EQ(Q->params_msgs, 1);
+    for (int i = 0; i < Q->nframes; i++) {
+        ASSERT_INT_NE(Q->frames[i].encoding, 2);
+        for (int k = 0; Q->frames[i].encoding == 1 && k < Q->nv * 3; k++)
+            ASSERT_NEAR_I(Q->frames[i].V[k], rest[k], (Q->qmax[k % 3] - Q->qmin[k % 3]) / 131070.0 + 1e-6, k);
+    }
     for (int i = 0; i < A->nframes; i++) {
         ASSERT(A->frames[i].flags & 1); /* reference lost */
         for (int k = 0; k < A->nv * 3; k++)
@@ -1316,6 +1441,7 @@ static void scenario_invalid(void)
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
     lws_context_destroy(ctx);
     wsc_free(A);
+    wsc_free(Q);
 }
 
 /* ------------------------------------------------------------------ http */
@@ -1578,7 +1704,7 @@ int main(int argc, char **argv)
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
                         "stream|slow|record|limits|origin|idle|kinds|config|labels|listen|invalid|"
-                        "http|horse [MESHSTEER]\n");
+                        "http|horse|params [MESHSTEER | MESHSTEER_LOAD]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
@@ -1606,6 +1732,8 @@ int main(int argc, char **argv)
         scenario_idle();
     else if (!strcmp(argv[3], "kinds"))
         scenario_kinds();
+    else if (!strcmp(argv[3], "params"))
+        scenario_params(argc == 5 ? argv[4] : NULL);
     else if (!strcmp(argv[3], "config"))
         scenario_config();
     else if (!strcmp(argv[3], "labels"))

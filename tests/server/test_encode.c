@@ -143,7 +143,10 @@ int main(void)
     srv_frame *f = srv_gen_free_frame(g);
     ASSERT(f);
     srv_frame_encode(f, 42, 1000, 1500, V, mk, valid, SRV_FLAG_HELD, 1);
-    for (int e = 0; e < SRV_ENC_COUNT; e++) {
+    /* the vertex encodings; a generation without a compact form has no params message
+     * (test_encode_params covers it) */
+    ASSERT_INT_EQ(f->len[SRV_ENC_PARAMS], 0);
+    for (int e = 0; e < SRV_ENC_PARAMS; e++) {
         const unsigned char *m = f->msg[e];
         ASSERT_INT_EQ(f->len[e], srv_frame_size(e, 5, 3));
         ASSERT_INT_EQ(m[5] & SRV_FLAG_HELD, SRV_FLAG_HELD);
@@ -202,6 +205,7 @@ int main(void)
     ASSERT(srv_gen_create(&info, &src, 8, &g, err) < 0);
 
     ASSERT_INT_EQ(srv_encoding_parse("int16"), SRV_ENC_INT16);
+    ASSERT_INT_EQ(srv_encoding_parse("params"), SRV_ENC_PARAMS);
     ASSERT_INT_EQ(srv_encoding_parse("float64"), -1);
     printf("ok\n");
     return 0;

@@ -177,6 +177,22 @@ static uint32_t join(natsConnection *nc, const char *prefix)
     return gen;
 }
 
+/* A params subscriber's join: the params model (MSPM) by request-reply, of generation gen, with
+ * at least one layout (the example model is a steering model: it has a compact form). */
+static void join_params(natsConnection *nc, const char *prefix, uint32_t gen)
+{
+    char subj[128];
+    natsMsg *pm = NULL;
+    snprintf(subj, sizeof subj, "%s.get.params", prefix);
+    ASSERT_INT_EQ(natsConnection_Request(&pm, nc, subj, "", 0, 3000), NATS_OK);
+    const unsigned char *d = (const unsigned char *)natsMsg_GetData(pm);
+    ASSERT(natsMsg_GetDataLength(pm) >= 16);
+    ASSERT(!memcmp(d, "MSPM", 4));
+    ASSERT_GE(d[6] | d[7] << 8, 1);
+    ASSERT_INT_EQ(d[8] | d[9] << 8 | d[10] << 16 | (uint32_t)d[11] << 24, gen);
+    natsMsg_Destroy(pm);
+}
+
 static void start_daemon(const char *publish, const char *subject)
 {
     char model[1200], source[1200];
@@ -202,11 +218,14 @@ static void scenario_failover(void)
     pid_t pid = H.pid;
     const char *urls_a[] = {C.node[1].url, C.node[2].url};
     const char *urls_b[] = {C.node[2].url};
-    sub a, b;
+    sub a, b, c;
     sub_open(&a, "node2 subscriber", urls_a, 2, "msh.test.frames.int16", 1);
     sub_open(&b, "node3 subscriber", urls_b, 1, "msh.test.frames.float32", 0);
+    sub_open(&c, "node3 params subscriber", urls_b, 1, "msh.test.frames.params", 2);
     uint32_t gen = join(a.nc, "msh.test");
     ASSERT_INT_EQ(join(b.nc, "msh.test"), gen);
+    ASSERT_INT_EQ(join(c.nc, "msh.test"), gen);
+    join_params(c.nc, "msh.test", gen);
 
     sleep_ms(2000);
     uint64_t fa = sub_frames(&a), fb = sub_frames(&b);
@@ -214,6 +233,8 @@ static void scenario_failover(void)
            (unsigned long long)fa, (unsigned long long)fb);
     ASSERT_GE(fa, 30); /* the example plays at 30 fps: 60 in 2 s; allow a slow start */
     ASSERT_GE(fb, 30);
+    ASSERT_GE(sub_frames(&c), 30);
+    ASSERT_INT_EQ(sub_bad(&c), 0);
     pthread_mutex_lock(&a.lock);
     uint32_t gen_a = a.generation;
     pthread_mutex_unlock(&a.lock);
@@ -267,10 +288,12 @@ static void scenario_failover(void)
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_nats_connected"), 1);
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_nats_reconnects_total"), 0);
     ASSERT_GT(harness_metric(&H, "meshsteer_nats_messages_total"), 200);
-    ASSERT_GE(harness_metric(&H, "meshsteer_nats_requests_total"), 6);
+    ASSERT_GE(harness_metric(&H, "meshsteer_nats_requests_total"), 9);
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_nats_drops_total{reason=\"error\"}"), 0);
+    ASSERT_INT_EQ(sub_bad(&c), 0);
     sub_close(&a);
     sub_close(&b);
+    sub_close(&c);
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
     nats_cluster_disown(pid);
     nats_cluster_stop(&C);

@@ -1,5 +1,6 @@
 /* wsclient.c - the daemon tests' WebSocket client (see wsclient.h). */
 #include "wsclient.h"
+#include "params.h"
 
 #include <libwebsockets.h>
 #include <stdlib.h>
@@ -40,6 +41,19 @@ static void on_binary(wsc *c, const unsigned char *m, size_t len)
         }
         return;
     }
+    if (len >= 16 && !memcmp(m, "MSPM", 4)) { /* the params model (params encoding) */
+        ws_params_free(c->params);
+        free(c->params);
+        c->params = calloc(1, sizeof *c->params);
+        c->params_len = len;
+        c->params_msgs++;
+        if (!c->params || ws_params_parse(m, len, c->params, c->error, sizeof c->error)) {
+            free(c->params);
+            c->params = NULL;
+            c->protocol_errors++;
+        }
+        return;
+    }
     if (len < 56 || memcmp(m, "MSFR", 4)) {
         c->protocol_errors++;
         snprintf(c->error, sizeof c->error, "unknown binary message of %zu bytes", len);
@@ -48,8 +62,10 @@ static void on_binary(wsc *c, const unsigned char *m, size_t len)
     int enc = m[4];
     int nv = (int)u32(m + 12), nm = (int)u32(m + 16);
     size_t vb = enc == 1 ? (size_t)nv * 6 : (size_t)nv * 12;
+    if (enc == 2) /* layout, count, the floats */
+        vb = len >= 64 ? 8 + 4 * (size_t)u32(m + 60) : 0;
     size_t want = 56 + ((vb + 3) & ~(size_t)3) + (size_t)nm * 12 + (((size_t)nm + 3) & ~(size_t)3);
-    if (want != len || nv != c->nv || nm != c->nm || enc > 1) {
+    if (want != len || nv != c->nv || nm != c->nm || enc > 2 || (enc == 2 && !c->params)) {
         c->protocol_errors++;
         snprintf(c->error, sizeof c->error, "frame: %zu bytes, expected %zu (enc %d nv %d/%d)", len,
                  want, enc, nv, c->nv);
@@ -73,7 +89,9 @@ static void on_binary(wsc *c, const unsigned char *m, size_t len)
     if (c->keep_vertices) {
         f->V = malloc(sizeof(float) * (size_t)nv * 3);
         const unsigned char *p = m + 56;
-        for (int i = 0; i < nv * 3; i++) {
+        if (enc == 2 && ws_params_decode(c->params, p, vb, f->V, c->error, sizeof c->error))
+            c->protocol_errors++;
+        for (int i = 0; i < nv * 3 && enc < 2; i++) {
             int a = i % 3;
             if (enc == 0) {
                 f->V[i] = f32(p + 4 * (size_t)i);
@@ -280,6 +298,8 @@ void wsc_free(wsc *c)
         free(c->texts[i]);
     for (int i = 0; i < c->nout; i++)
         free(c->out[i]);
+    ws_params_free(c->params);
+    free(c->params);
     free(c->hello);
     free(c->topo);
     free(c->rx);

@@ -40,6 +40,9 @@ typedef struct wsc {
     int out_bin[16];       /* queued entry is binary */
     unsigned char *rx;
     size_t rx_len, rx_cap;
+    struct ws_params *params; /* the last params model (MSPM), parsed; NULL before one */
+    size_t params_len;
+    int params_msgs;
     int protocol_errors;   /* malformed binary messages */
     int want_close;        /* wsc_close asked for a normal close */
     char error[256];

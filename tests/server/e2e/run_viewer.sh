@@ -13,12 +13,7 @@
 # on DIR/model.msm replaying DIR/trot.csv with no --web-root (the viewer it finds by itself).
 set -euo pipefail
 meshsteerd=$1 make_model=$2 shot=$3
-here=$(cd "$(dirname "$0")" && pwd)
-web=${MESHSTEER_SRC:-$here/../../..}/clients/web
-command -v node >/dev/null || { echo "skip: node not installed"; exit 77; }
-[ -x "${CHROMIUM:-/usr/bin/chromium}" ] || { echo "skip: chromium not installed"; exit 77; }
-[ -f "$web/node_modules/three/build/three.module.js" ] && [ -d "$web/node_modules/playwright-core" ] ||
-    { echo "skip: run 'npm ci' in clients/web (scripts/run.sh does)"; exit 77; }
+. "$(dirname "$0")/browser.sh" # sets here and web, or skips
 
 dir=$(mktemp -d "${MESHSTEER_BUILD:-/tmp}/e2e-XXXXXX")
 cleanup() {
