@@ -7,6 +7,7 @@
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <sched.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <stdio.h>
@@ -124,6 +125,10 @@ static void spawn(nats_cluster *c, int i)
     if (pid == 0) {
         /* dies with this process even when it ends without exit handlers (a sanitizer's abort) */
         prctl(PR_SET_PDEATHSIG, SIGKILL);
+        /* a benchmark under SCHED_FIFO (bench_daemon ... fifo) must not hand it to the servers:
+         * Go's runtime spins its idle threads, and two spinning FIFO servers starve the two cores */
+        struct sched_param sp = {0};
+        sched_setscheduler(0, SCHED_OTHER, &sp);
         int fd = open(nd->log, O_WRONLY | O_CREAT | O_APPEND, 0644);
         dup2(fd, 1);
         dup2(fd, 2);
