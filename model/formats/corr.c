@@ -13,6 +13,7 @@
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <stdlib.h>
+#include <math.h>
 #include <string.h>
 
 #define CORR_MAX_FILE ((size_t)16 << 20)
@@ -58,8 +59,9 @@ static int parse_entries(const cJSON *list, const char *name, const mdl_rig *rig
                             "array of triangle indices", name, i);
         for (int k = 0; k < n; k++) {
             const cJSON *t = cJSON_GetArrayItem(tris, k);
-            if (!cJSON_IsNumber(t) || t->valuedouble != (double)(int)t->valuedouble ||
-                t->valuedouble < 0 || t->valuedouble >= nf)
+            /* range first: casting a double outside int's range is undefined (found by fuzz_corr) */
+            if (!cJSON_IsNumber(t) || !(t->valuedouble >= 0 && t->valuedouble < nf) ||
+                t->valuedouble != floor(t->valuedouble))
                 return mdl__err(err, MDL_EFORMAT, "%s: correspondences[%d].triangles[%d]: must be a "
                                 "triangle index within 0..%d", name, i, k, nf - 1);
             if (pass == 1)
