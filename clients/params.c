@@ -13,12 +13,15 @@ static uint32_t u32(const unsigned char *p)
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
+/* a union, not memcpy: an unoptimised or instrumented build (ThreadSanitizer) calls memcpy for
+ * every float of a frame, which made the decode the slowest part of the daemon's tests */
 static float f32(const unsigned char *p)
 {
-    uint32_t u = u32(p);
-    float f;
-    memcpy(&f, &u, 4);
-    return f;
+    union {
+        uint32_t u;
+        float f;
+    } b = {.u = u32(p)};
+    return b.f;
 }
 
 static int16_t i16(const unsigned char *p)
@@ -45,9 +48,51 @@ void ws_params_free(ws_params *p)
         free(p->layout[l].mode_at);
         free(p->layout[l].param_at);
         free(p->layout[l].slot_at);
+        free(p->layout[l].shape_of);
+        free(p->layout[l].shape_info);
+        free(p->layout[l].scale_v);
+        free(p->layout[l].mean_v);
+        free(p->layout[l].modes_v);
+        free(p->layout[l].slot_entry);
+        free(p->layout[l].slot_weight);
+        free(p->layout[l].slot_piece);
+        free(p->layout[l].frame);
     }
     free(p->msg);
     memset(p, 0, sizeof *p);
+}
+
+/* The checked tables of L as native arrays (ws_params_layout). */
+static int unpack_layout(ws_params_layout *L, uint32_t nvals, char *err, size_t n)
+{
+    L->shape_of = malloc(sizeof *L->shape_of * (size_t)L->ninst);
+    L->shape_info = malloc(sizeof *L->shape_info * 4 * (size_t)L->nparts);
+    L->scale_v = malloc(sizeof *L->scale_v * ((size_t)L->nmodes + 1));
+    L->mean_v = malloc(sizeof *L->mean_v * (3 * (size_t)L->nentries + 1));
+    L->modes_v = malloc(sizeof *L->modes_v * (3 * (size_t)nvals + 1));
+    L->slot_entry = malloc(sizeof *L->slot_entry * ((size_t)L->nused + 1));
+    L->slot_weight = malloc(sizeof *L->slot_weight * ((size_t)L->nused + 1));
+    L->slot_piece = malloc(sizeof *L->slot_piece * ((size_t)L->nused + 1));
+    L->frame = malloc(sizeof *L->frame * ((size_t)L->nparams + 1));
+    if (!L->shape_of || !L->shape_info || !L->scale_v || !L->mean_v || !L->modes_v ||
+        !L->slot_entry || !L->slot_weight || !L->slot_piece || !L->frame)
+        return fail(err, n, "out of memory");
+    for (int i = 0; i < L->ninst; i++)
+        L->shape_of[i] = u32(L->inst + 4 * (size_t)i);
+    for (size_t i = 0; i < 4 * (size_t)L->nparts; i++)
+        L->shape_info[i] = u32(L->part + 4 * i);
+    for (int i = 0; i < L->nmodes; i++)
+        L->scale_v[i] = f32(L->scale + 4 * (size_t)i);
+    for (size_t i = 0; i < 3 * (size_t)L->nentries; i++)
+        L->mean_v[i] = f32(L->mean + 4 * i);
+    for (size_t i = 0; i < 3 * (size_t)nvals; i++)
+        L->modes_v[i] = i16(L->modes + 2 * i);
+    for (int k = 0; k < L->nused; k++) {
+        L->slot_entry[k] = u32(L->slot + 8 * (size_t)k);
+        L->slot_weight[k] = f32(L->slot + 8 * (size_t)k + 4);
+        L->slot_piece[k] = (uint16_t)(L->piece[2 * k] | L->piece[2 * k + 1] << 8);
+    }
+    return 0;
 }
 
 /* One layout at m[0 .. len); *used gets its length. */
@@ -137,8 +182,7 @@ static int parse_layout(const unsigned char *m, size_t len, int nv, ws_params_la
     L->slot_at[nv] = k;
     if (k != nused)
         return fail(err, n, "vertices hold %u slots, announced %u", k, nused);
-    *used = blen;
-    return 0;
+    return unpack_layout(L, nvals, err, n) ? -1 : (*used = blen, 0);
 }
 
 int ws_params_parse(const unsigned char *buf, size_t len, ws_params *out, char *err, size_t errlen)
@@ -190,34 +234,32 @@ int ws_params_decode(const ws_params *p, const unsigned char *block, size_t len,
     if (np != (uint32_t)L->nparams || len < 8 + 4 * (size_t)np)
         return fail(err, errlen, "params frame: %u floats, the layout has %d (%zu bytes)", np,
                     L->nparams, len);
-    const unsigned char *prm = block + 8;
+    float *prm = L->frame;
+    for (uint32_t i = 0; i < np; i++)
+        prm[i] = f32(block + 8 + 4 * (size_t)i);
     for (int v = 0; v < p->nv; v++) {
         float x[3] = {0, 0, 0};
         for (uint32_t k = L->slot_at[v]; k < L->slot_at[v + 1]; k++) {
-            const unsigned char *sl = L->slot + 8 * (size_t)k;
-            float w = f32(sl + 4);
-            uint32_t e = u32(sl), i = L->piece[2 * k] | L->piece[2 * k + 1] << 8;
-            uint32_t sh = u32(L->inst + 4 * (size_t)i);
-            const unsigned char *q = L->part + 16 * (size_t)sh;
-            uint32_t first = u32(q), cnt = u32(q + 4), k = u32(q + 8), mf = u32(q + 12);
-            const unsigned char *pi = prm + 4 * (size_t)L->param_at[i];
+            uint32_t e = L->slot_entry[k], i = L->slot_piece[k], sh = L->shape_of[i];
+            const uint32_t *q = L->shape_info + 4 * (size_t)sh;
+            uint32_t first = q[0], cnt = q[1], nk = q[2], mf = q[3];
+            const float *pi = prm + L->param_at[i];
             float y[3];
             for (int c = 0; c < 3; c++)
-                y[c] = f32(L->mean + 4 * (3 * (size_t)e + c));
-            for (uint32_t a = 0; a < k; a++) {
-                float lam = f32(pi + 4 * (7 + a)) * f32(L->scale + 4 * (size_t)(mf + a));
-                const unsigned char *mv =
-                    L->modes + 2 * (L->mode_at[sh] + 3 * ((size_t)a * cnt + (e - first)));
+                y[c] = L->mean_v[3 * (size_t)e + c];
+            for (uint32_t a = 0; a < nk; a++) {
+                float lam = pi[7 + a] * L->scale_v[mf + a];
+                const int16_t *mv = L->modes_v + L->mode_at[sh] + 3 * ((size_t)a * cnt + (e - first));
                 for (int c = 0; c < 3; c++)
-                    y[c] += lam * (float)i16(mv + 2 * c);
+                    y[c] += lam * (float)mv[c];
             }
-            float qw = f32(pi), qx = f32(pi + 4), qy = f32(pi + 8), qz = f32(pi + 12);
+            float qw = pi[0], qx = pi[1], qy = pi[2], qz = pi[3];
             float R[9] = {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy),
                           2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx),
                           2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)};
+            float w = L->slot_weight[k];
             for (int r = 0; r < 3; r++)
-                x[r] += w * (R[3 * r] * y[0] + R[3 * r + 1] * y[1] + R[3 * r + 2] * y[2] +
-                             f32(pi + 16 + 4 * r));
+                x[r] += w * (R[3 * r] * y[0] + R[3 * r + 1] * y[1] + R[3 * r + 2] * y[2] + pi[4 + r]);
         }
         memcpy(V + 3 * (size_t)v, x, sizeof x);
     }

@@ -6,7 +6,10 @@
  * (i = the slot's piece, e its entry; q_i, t_i, lambda_i from the frame).
  * The parser reads data from the network: every count is checked against the message length and
  * every index against its table before anything is read; a bad message is refused with a reason.
- * ws_params_parse allocates (ws_params_free frees); ws_params_decode allocates nothing. */
+ * ws_params_parse allocates (ws_params_free frees) and unpacks the little-endian tables into native
+ * arrays once, so that a frame's decode reads aligned values only (an unaligned read per float
+ * costs a call in an unoptimised or instrumented build); ws_params_decode allocates nothing, and
+ * writes the frame's floats into the layout's scratch (one decode at a time per ws_params). */
 #ifndef MESHSTEER_CLIENTS_PARAMS_H
 #define MESHSTEER_CLIENTS_PARAMS_H
 
@@ -28,6 +31,15 @@ typedef struct ws_params_layout {
     uint32_t *slot_at;           /* nv + 1: the first slot of each vertex */
     uint32_t *mode_at;           /* nparts: the first int16 of the shape's modes */
     uint32_t *param_at;          /* ninst: the first float of the piece in a frame */
+    /* the same tables unpacked (native byte order, aligned) */
+    uint32_t *shape_of;          /* ninst: inst */
+    uint32_t *shape_info;        /* nparts x 4: part */
+    float *scale_v, *mean_v;     /* nmodes; nentries x 3 */
+    int16_t *modes_v;            /* the mode values */
+    uint32_t *slot_entry;        /* nused: slot's entry */
+    float *slot_weight;          /* nused: slot's weight */
+    uint16_t *slot_piece;        /* nused: piece */
+    float *frame;                /* nparams: scratch, one frame's floats */
 } ws_params_layout;
 
 typedef struct ws_params {

@@ -101,6 +101,34 @@ export function decodeParamsModel(buf) {
   return m;
 }
 
+export const KIND_SKIN = 3;
+
+// The colour of bone j: the golden-ratio hue sequence (successive hues j * 0.618... of the circle)
+// in HSV, value 0.95, saturation 0.75: the colours `meshsteer render --skin` draws
+// (server/bone_colours.c), so a bone looks the same in a contact sheet and in the viewer.
+export function boneColour(j) {
+  const h = ((j * 0.6180339887498949) % 1) * 6, f = h - Math.floor(h);
+  const v = 0.95, p = v * 0.25, q = v * (1 - 0.75 * f), t = v * (1 - 0.75 * (1 - f));
+  return [[v, t, p], [q, v, p], [p, v, t], [p, q, v], [t, p, v], [v, p, q]][Math.floor(h) % 6];
+}
+
+// A skin layout's weights as colour (Le & Deng 2012's w_ij; a skin's pieces are its bones): vertex
+// i gets sum_j w_ij colour(j), as server/bone_colours.c does for `render --skin`. nv x 3 floats in
+// [0, 1] (sRGB), or null when layout l is not a skin.
+export function boneWeightColours(model, l) {
+  const L = model.layouts[l];
+  if (!L || L.kind !== KIND_SKIN) return null;
+  const out = new Float32Array(3 * model.nv);
+  for (let v = 0; v < model.nv; v++)
+    for (let s = 0; s < L.slots; s++) {
+      const t = 4 * (v * L.slots + s), w = L.slotTex[t + 2];
+      if (w === 0) continue;
+      const c = boneColour(L.slotTex[t + 1]);
+      for (let a = 0; a < 3; a++) out[3 * v + a] += w * c[a];
+    }
+  return out;
+}
+
 // A params frame's vertex block into the layout's parameter texture contents; returns the layout
 // index. The header and markers are decoded by protocol.js (decodeFrame).
 export function decodeParamsBlock(dv, model) {

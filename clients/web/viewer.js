@@ -17,6 +17,7 @@ const params = new URLSearchParams(location.search);
 const stats = {
   connected: false, connects: 0, reconnects: 0, hellos: 0, topologies: 0,
   frames: 0,          // frame messages received
+  colouring: 'parts', // what "colour by part" shows: 'parts', or a skin's 'bone weights'
   rendered: 0,        // frames drawn
   dropped: 0,         // skipped by the server (slow link) + replaced before they were drawn
   errors: 0, lastError: '',
@@ -101,6 +102,22 @@ window.meshsteerParams = {
   },
   material: () => Boolean(mesh && paramsMesh && mesh.material === paramsMesh.material),
   positions: () => paramsMesh ? Array.from(paramsMesh.positions(renderer)) : null, // what is drawn
+  colours: () => mesh ? Array.from(mesh.geometry.attributes.color.array) : null, // per vertex, drawn
+  // a skin layout's weights: per vertex, [bone, weight] of its slots in use
+  skinWeights: () => {
+    const L = paramsModel && paramsModel.layouts.find(L => L.kind === PP.KIND_SKIN);
+    if (!L) return null;
+    const out = [];
+    for (let v = 0; v < paramsModel.nv; v++) {
+      const row = [];
+      for (let s = 0; s < L.slots; s++) {
+        const t = 4 * (v * L.slots + s);
+        if (L.slotTex[t + 2] !== 0) row.push([L.slotTex[t + 1], L.slotTex[t + 2]]);
+      }
+      out.push(row);
+    }
+    return out;
+  },
   drawnSeq: 0, // the params frame those positions are of
 };
 const decoded = { V: null, markers: null, valid: null };
@@ -113,6 +130,19 @@ const paramsBox = document.getElementById('c-params');
 const groundBox = document.getElementById('c-ground');
 int16Box.checked = stats.encoding === 'int16';
 paramsBox.checked = stats.encoding === 'params';
+
+// "colour by part": the topology's part of each vertex (a skin's: its strongest bone); while a
+// skin's params frames are drawn, the skin's weights as colour instead (params.js,
+// boneWeightColours: the params model is what carries the weights)
+const colours = { parts: null, bones: null, shown: 'parts' };
+function showColours(which) {
+  if (which === 'bone weights' && !colours.bones) which = 'parts';
+  if (colours.shown === which || !mesh) return;
+  const c = mesh.geometry.attributes.color;
+  c.array.set(which === 'parts' ? colours.parts : colours.bones);
+  c.needsUpdate = true;
+  colours.shown = stats.colouring = which;
+}
 
 function partColours(parts, nparts) {
   const c = new Float32Array(parts.length * 3), col = new THREE.Color();
@@ -130,7 +160,11 @@ function buildMesh(t) {
   const pos = new THREE.BufferAttribute(new Float32Array(t.rest), 3);
   pos.setUsage(THREE.DynamicDrawUsage);
   g.setAttribute('position', pos);
-  g.setAttribute('color', new THREE.BufferAttribute(partColours(t.parts, t.nparts), 3));
+  colours.parts = partColours(t.parts, t.nparts);
+  colours.bones = null;
+  colours.shown = 'parts';
+  stats.colouring = 'parts';
+  g.setAttribute('color', new THREE.BufferAttribute(colours.parts.slice(), 3));
   g.setIndex(new THREE.BufferAttribute(t.faces, 1));
   g.computeVertexNormals();
   g.computeBoundingSphere();
@@ -383,6 +417,9 @@ function onBinary(buf) {
     if (dupFrom) for (let k = 0; k < dupFrom.length; k++) rep[dupFrom[k]] = dupTo[k];
     paramsMesh = new PP.ParamsMesh(THREE, paramsModel, baseMaterial, topo.faces, rep);
     recentParams.clear();
+    const skin = paramsModel.layouts.findIndex(L => L.kind === PP.KIND_SKIN);
+    colours.bones = skin >= 0 ? PP.boneWeightColours(paramsModel, skin) : null;
+    showColours('parts');
     stats.paramsModels++;
   } else if (k === 'frame' && topo) {
     const h = P.decodeFrame(buf, topo, decoded);
@@ -398,8 +435,9 @@ function onBinary(buf) {
     stats.lastSeq = h.seq;
     stats.lastCaptureUs = h.tCapture;
     stats.framesSinceAck++;
-    // flags bit 0: reference lost (the body pose is kept), bit 2: held (missing markers replaced)
-    stats.driver = h.flags & 1 ? 'reference lost' : h.flags & 4 ? 'tracked (held)' : 'tracked';
+    // flags bit 0: reference lost (the body pose is kept), bit 2: held (missing markers replaced),
+    // bit 3: idle (no one is tracked; the model's idle animation made the frame)
+    stats.driver = h.flags & 8 ? 'idle' : h.flags & 1 ? 'reference lost' : h.flags & 4 ? 'tracked (held)' : 'tracked';
     pending = h;
   }
 }
@@ -423,12 +461,14 @@ function draw() {
   if (pending && mesh) {
     if (pending.encoding === PP.ENC_PARAMS) { // the GPU rebuilds the mesh
       paramsMesh.update(renderer, pending.layout);
+      showColours(paramsModel.layouts[pending.layout].kind === PP.KIND_SKIN ? 'bone weights' : 'parts');
       mesh.material = paramsMesh.material;
       mesh.customDepthMaterial = paramsMesh.depth;
       window.meshsteerParams.drawnSeq = pending.seq;
     } else {
       mesh.material = baseMaterial;
       mesh.customDepthMaterial = undefined;
+      showColours('parts');
       const pos = mesh.geometry.attributes.position;
       pos.array.set(decoded.V);
       pos.needsUpdate = true;

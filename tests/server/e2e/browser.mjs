@@ -96,8 +96,11 @@ export async function drive(body) {
 // to settle, prints window.meshsteer and returns a copy of it.
 export async function openViewer(page, url) {
   await page.goto(url, { waitUntil: 'load' });
-  await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30, null,
-                             { timeout: 30000 });
+  // 30 frames drawn and 100 received (decoded, or replaced by a newer one first): a daemon under
+  // a sanitizer, or a slow model kind, takes longer to send them than 3 s after the 30th draw
+  await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30 &&
+                                   window.meshsteer.frames + (window.meshsteer.coalesced || 0) >= 100,
+                             null, { timeout: 60000 });
   await page.waitForTimeout(3000);
   const s = await page.evaluate(() => ({ ...window.meshsteer }));
   console.log(JSON.stringify(s));

@@ -96,6 +96,39 @@ try {
     n++;
     await page.waitForTimeout(300); // the next check on other frames
   }
+  // "colour by part" on a skin's frames shows its weights as colour: every vertex the blend of its
+  // bones' colours (the golden-ratio HSV hues of `render --skin`, server/bone_colours.c, computed
+  // here again), so a vertex between two bones gets a colour of neither
+  await page.click('#c-parts');
+  await page.waitForFunction(() => window.meshsteer.colouring === 'bone weights', null, { timeout: 20000 });
+  const drv = await page.evaluate(() => window.meshsteer.driver);
+  if (drv !== 'idle') fail(`the skin's idle frames show driver '${drv}', want 'idle'`);
+  const bc = await page.evaluate(() => ({ c: window.meshsteerParams.colours(), w: window.meshsteerParams.skinWeights() }));
+  const hsv = j => {
+    const h = ((j * 0.6180339887498949) % 1) * 6, f = h - Math.floor(h), v = 0.95, p = v * 0.25;
+    return [[v, v * (1 - 0.75 * (1 - f)), p], [v * (1 - 0.75 * f), v, p], [p, v, v * (1 - 0.75 * (1 - f))],
+            [p, v * (1 - 0.75 * f), v], [v * (1 - 0.75 * (1 - f)), p, v], [v, p, v * (1 - 0.75 * f)]][Math.floor(h) % 6];
+  };
+  let cworst = 0, blended = 0, wsum = 0;
+  const bones = new Set(), shades = new Set();
+  bc.w.forEach((row, v) => {
+    const want = [0, 0, 0];
+    let s = 0;
+    for (const [j, w] of row) { bones.add(j); s += w; const c = hsv(j); for (let a = 0; a < 3; a++) want[a] += w * c[a]; }
+    wsum = Math.max(wsum, Math.abs(s - 1));
+    if (row.length > 1 && row.every(([, w]) => w < 0.9)) blended++;
+    for (let a = 0; a < 3; a++) cworst = Math.max(cworst, Math.abs(bc.c[3 * v + a] - want[a]));
+    shades.add(bc.c.slice(3 * v, 3 * v + 3).map(x => Math.round(x * 255)).join(','));
+  });
+  console.log(`bone colours: ${bc.w.length} vertices, ${bones.size} bones, ${blended} vertices blended ` +
+              `(no weight over 0.9), ${shades.size} shades; worst colour error ${cworst.toExponential(1)}, ` +
+              `weight sums within ${wsum.toExponential(1)} of 1`);
+  if (!(cworst < 1e-5)) fail(`bone colours: a vertex is ${cworst} off the blend of its bones' colours`);
+  if (!(bones.size > 1 && blended > 0 && shades.size > bones.size))
+    fail(`bone colours: ${bones.size} bones, ${blended} blended vertices, ${shades.size} shades`);
+  await page.waitForTimeout(500);
+  await page.screenshot({ path: shot.replace(/\.png$/, '-bones.png') });
+  await page.click('#c-parts');
   if (checked[1] < 3 || checked[3] < 3 || checked.drawn < 3)
     fail(`compared ${checked[1]} steer, ${checked[3]} skin and ${checked.drawn} drawn frames, want 3 each`);
   const st = await page.evaluate(() => window.meshsteer);
