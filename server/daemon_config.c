@@ -7,6 +7,7 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,6 +26,8 @@ void srv_config_defaults(srv_config *c)
     c->max_clients = 256;
     c->max_message = 4096;
     c->idle_timeout = 30;
+    c->idle_after = 2.0;
+    c->fade = 0.5;
     snprintf(c->origin, sizeof c->origin, "any");
     c->log_level = SRV_LOG_NOTICE;
     c->encoding = SRV_ENC_FLOAT32;
@@ -50,6 +53,20 @@ static int set_int(int *dst, const char *key, const char *v, long lo, long hi, c
     if (x < lo || x > hi)
         return srv_err(err, -ERANGE, "%s: %ld outside [%ld, %ld]", key, x, lo, hi);
     *dst = (int)x;
+    return 0;
+}
+
+static int set_seconds(double *dst, const char *key, const char *v, double lo, double hi,
+                       char *err)
+{
+    char *end;
+    errno = 0;
+    double x = strtod(v, &end);
+    if (end == v || *end || errno || !isfinite(x))
+        return srv_err(err, -EINVAL, "%s: '%s' is not a number of seconds", key, v);
+    if (x < lo || x > hi)
+        return srv_err(err, -ERANGE, "%s: %g outside [%g, %g] seconds", key, x, lo, hi);
+    *dst = x;
     return 0;
 }
 
@@ -192,6 +209,10 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
         return set_int(&c->max_message, key, v, 64, 1 << 20, err);
     if (!strcmp(key, "idle_timeout"))
         return set_int(&c->idle_timeout, key, v, 1, 86400, err);
+    if (!strcmp(key, "idle_after"))
+        return set_seconds(&c->idle_after, key, v, 0.1, 3600, err);
+    if (!strcmp(key, "fade"))
+        return set_seconds(&c->fade, key, v, 0, 60, err);
     if (!strcmp(key, "token")) {
         for (const char *p = v; *p; p++)
             if (!isgraph((unsigned char)*p) || strchr("&=#%", *p))
@@ -232,8 +253,8 @@ int srv_config_set(srv_config *c, const char *key, const char *v, char *err)
         return set_subject(c, v, err);
     return srv_err(err, -ENOENT,
                    "unknown key '%s' (known: model, source, listen, record, max_clients, "
-                   "max_message, idle_timeout, token, origin, web_root, log_level, encoding, "
-                   "labels, publish, subject)",
+                   "max_message, idle_timeout, idle_after, fade, token, origin, web_root, "
+                   "log_level, encoding, labels, publish, subject)",
                    key);
 }
 

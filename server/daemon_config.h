@@ -15,6 +15,11 @@
  *   max_message   largest control message in bytes, 64..1048576, default 4096
  *   idle_timeout  seconds a client may leave a pending frame unaccepted before it is closed,
  *                 1..86400, default 30
+ *   idle_after    seconds without a source frame, or without a pose from the markers, before a
+ *                 model's idle animation takes over, 0.1..3600, default 2 (a lost or ended
+ *                 source hands over at once)
+ *   fade          seconds over which the output cross-fades from the idle animation back to the
+ *                 tracked pose when tracking returns, 0..60 (0: a cut), default 0.5
  *   token         shared secret for /stream (query ?token= or header Authorization: Bearer ...)
  *   origin        "any" (default), "same" (Origin must match Host), or a comma list of origins
  *   web_root      directory served at / (default: the installed viewer)
@@ -44,6 +49,8 @@ typedef struct srv_config {
     int max_clients;
     int max_message;
     int idle_timeout;
+    double idle_after; /* seconds */
+    double fade;       /* seconds */
     char token[256];
     char origin[1024];
     char web_root[SRV_PATH_LEN];

@@ -50,6 +50,11 @@ static void usage(FILE *f)
             "      --max-clients N     default 256\n"
             "      --max-message BYTES largest control message, default 4096\n"
             "      --idle-timeout S    close clients that accept no frame for S seconds (30)\n"
+            "      --idle-after S      a model with an idle animation (meshsteer skin --add-to) plays\n"
+            "                          it after S seconds without source frames or without a pose\n"
+            "                          from the markers (2; a lost or ended source: at once)\n"
+            "      --fade S            cross-fade from the idle animation back to the tracked pose\n"
+            "                          over S seconds when tracking returns (0.5; 0: a cut)\n"
             "      --token SECRET      require ?token=SECRET or 'Authorization: Bearer SECRET'\n"
             "      --origin any|same|LIST  Origin check for /stream (default any)\n"
             "      --web-root DIR      directory served at / (default: the built viewer)\n"
@@ -177,7 +182,7 @@ static int build_config(const srv_args *a, srv_config *c, char *err)
 static int parse_args(int argc, char **argv, srv_args *a, srv_config *c, int *check_only)
 {
     enum { O_RECORD = 256, O_MAXC, O_MAXM, O_IDLE, O_TOKEN, O_ORIGIN, O_WEB, O_ENC, O_LOG, O_CHECK,
-           O_VERSION, O_LABELS, O_PUBLISH, O_SUBJECT };
+           O_VERSION, O_LABELS, O_PUBLISH, O_SUBJECT, O_IDLE_AFTER, O_FADE };
     static const struct option opts[] = {
         {"model", required_argument, 0, 'm'},     {"source", required_argument, 0, 's'},
         {"listen", required_argument, 0, 'l'},    {"config", required_argument, 0, 'c'},
@@ -189,6 +194,7 @@ static int parse_args(int argc, char **argv, srv_args *a, srv_config *c, int *ch
         {"check-config", no_argument, 0, O_CHECK}, {"help", no_argument, 0, 'h'},
         {"version", no_argument, 0, O_VERSION},   {"labels", required_argument, 0, O_LABELS},
         {"publish", required_argument, 0, O_PUBLISH}, {"subject", required_argument, 0, O_SUBJECT},
+        {"idle-after", required_argument, 0, O_IDLE_AFTER}, {"fade", required_argument, 0, O_FADE},
         {0, 0, 0, 0},
     };
     /* flags override the file: collect them first, read the file, then apply them */
@@ -213,6 +219,8 @@ static int parse_args(int argc, char **argv, srv_args *a, srv_config *c, int *ch
         case O_LABELS: key = "labels"; break;
         case O_PUBLISH: key = "publish"; break;
         case O_SUBJECT: key = "subject"; break;
+        case O_IDLE_AFTER: key = "idle_after"; break;
+        case O_FADE: key = "fade"; break;
         case 'v': a->verbose++; break;
         case O_CHECK: *check_only = 1; break;
         case 'h': usage(stdout); exit(0);
@@ -337,6 +345,7 @@ int main(int argc, char **argv)
         drv_source_close(src);
         return 1;
     }
+    srv_pipeline_set_idle(d.pipe, d.cfg.idle_after, d.cfg.fade);
 
     static const struct lws_protocol_vhost_options pvo_default = {NULL, NULL, "default", "1"};
     static const struct lws_protocol_vhost_options pvo = {NULL, &pvo_default, SRV_WS_PROTOCOL, ""};

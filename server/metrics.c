@@ -122,6 +122,12 @@ size_t srv_metrics_render(const srv_metrics *m, double uptime_s, char *buf, size
     counter(&o, "meshsteer_reloads_total", "Model reloads that succeeded.", ld(&m->reloads_ok));
     counter(&o, "meshsteer_reloads_failed_total", "Model reloads that failed (old model kept).",
             ld(&m->reloads_failed));
+    emit(&o, "# HELP meshsteer_driver_switches_total Switches between the tracked pose and the "
+             "model's idle animation, by the driver switched to.\n"
+             "# TYPE meshsteer_driver_switches_total counter\n"
+             "meshsteer_driver_switches_total{to=\"idle\"} %llu\n"
+             "meshsteer_driver_switches_total{to=\"tracked\"} %llu\n",
+         (unsigned long long)ld(&m->to_idle), (unsigned long long)ld(&m->to_tracked));
     if (atomic_load(&m->osc.present)) {
         const srv_osc_metrics *c = &m->osc;
         counter(&o, "meshsteer_osc_packets_total", "UDP datagrams the osc: source received.",

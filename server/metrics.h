@@ -58,6 +58,7 @@ typedef struct srv_metrics {
     atomic_uint_fast64_t closed_idle;
     atomic_uint_fast64_t reloads_ok;
     atomic_uint_fast64_t reloads_failed;
+    atomic_uint_fast64_t to_idle, to_tracked; /* driver switches (the idle animation) */
     atomic_int clients;
     /* NATS publication (publish_nats.c); rendered only when nats_enabled */
     atomic_int nats_enabled, nats_connected;

@@ -7,6 +7,7 @@
 #include "record.h"
 
 #include <errno.h>
+#include <math.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -34,6 +35,9 @@ struct srv_pipeline {
     atomic_uint controls;          /* SRV_CTL_BIT()s the source accepts now (changes on reopen) */
     atomic_int idle_on;            /* the idle synthesis drives the output */
     atomic_int paused;             /* a client paused the source: no frames, but someone is there */
+    uint64_t idle_after_us, fade_us; /* srv_pipeline_set_idle */
+    uint64_t fade_start_us;        /* synthesis thread: start of the cross-fade back, 0 if none */
+    uint64_t t_start_us;           /* synthesis thread: the clock of clock-driven kinds */
     srv_metrics *m;
     void (*wake)(void *);
     void *wake_ud;
@@ -103,6 +107,7 @@ void srv_bundle_fini(srv_bundle *b)
     srv_gen_unref(b->gen);
     free(b->map);
     free(b->V);
+    free(b->V_idle);
     free(b->mk);
     free(b->mv);
     free(b->prm);
@@ -267,6 +272,10 @@ int srv_pipeline_load(const char *model_path, const char *labels, const srv_sour
     }
     if ((r = create_idle(out, &info, model_path, err)))
         goto fail;
+    if (out->idle && !(out->V_idle = calloc((size_t)info.nv * 3, sizeof(float)))) {
+        r = srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
+        goto fail;
+    }
     srv_source_desc desc = {
         .spec = src->spec,
         .scheme = src->scheme,
@@ -324,6 +333,7 @@ int srv_pipeline_create(drv_source *src, srv_source_info *si, srv_bundle *b, srv
         return srv_err(err, -ENOMEM, "pipeline: out of memory");
     p->src = src;
     atomic_init(&p->controls, si->controls);
+    srv_pipeline_set_idle(p, 2.0, 0.5);
     p->m = m;
     p->wake = wake;
     p->wake_ud = wake_ud;
@@ -644,6 +654,36 @@ static int take_slot(srv_pipeline *p, uint64_t deadline_us, float *xyz, uint8_t 
     return 1;
 }
 
+void srv_pipeline_set_idle(srv_pipeline *p, double idle_after_s, double fade_s)
+{
+    p->idle_after_us = (uint64_t)llround(idle_after_s * 1e6);
+    p->fade_us = (uint64_t)llround(fade_s * 1e6);
+}
+
+/* The cross-fade back from the idle animation: while it lasts, b->V (the tracked pose) becomes
+ * s V + (1 - s) V_idle, s = smoothstep of the time since it began, V_idle the idle synthesis at
+ * the same clock. Returns 1 when b->V is such a blend (it then has no compact form), 0 if not. */
+static int fade_back(srv_pipeline *p, srv_bundle *b, uint64_t now)
+{
+    if (!p->fade_start_us || !b->idle)
+        return 0;
+    double a = (double)(now - p->fade_start_us) / (double)p->fade_us;
+    if (a >= 1) {
+        p->fade_start_us = 0;
+        return 0;
+    }
+    mdl_synth_input in = {.t = (double)(now - p->t_start_us) * 1e-6};
+    if (mdl_synth_frame(b->idle, &in, b->V_idle, NULL) != 0) {
+        p->fade_start_us = 0; /* no idle pose to fade from: the tracked one as it is */
+        return 0;
+    }
+    float s = (float)(a * a * (3 - 2 * a));
+    size_t n = (size_t)b->gen->nv * 3;
+    for (size_t i = 0; i < n; i++)
+        b->V[i] = s * b->V[i] + (1 - s) * b->V_idle[i];
+    return 1;
+}
+
 /* One frame of the tracked (marker-driven) kind. Returns 0 when a frame was published. */
 static int synth_tracked(srv_pipeline *p, srv_bundle *b, const float *xyz, const uint8_t *valid,
                          uint64_t t_capture)
@@ -670,7 +710,10 @@ static int synth_tracked(srv_pipeline *p, srv_bundle *b, const float *xyz, const
     }
     int flags = (si.reference_lost ? SRV_FLAG_REFERENCE_LOST : 0) |
                 (si.markers_held ? SRV_FLAG_HELD : 0);
-    publish(p, b, b->synth, t_capture, t0, flags, si.markers_missing);
+    if (atomic_load(&p->idle_on) && b->idle && p->fade_us > 0)
+        p->fade_start_us = srv_now_us(); /* back from idle: this frame is all idle pose */
+    int blended = fade_back(p, b, srv_now_us());
+    publish(p, b, blended ? NULL : b->synth, t_capture, t0, flags, si.markers_missing);
     return 0;
 }
 
@@ -690,9 +733,11 @@ static void synth_clock(srv_pipeline *p, srv_bundle *b, mdl_synth *s, double t, 
 
 static void set_idle(srv_pipeline *p, int on, const char *why)
 {
-    if (atomic_exchange(&p->idle_on, on) != on)
+    if (atomic_exchange(&p->idle_on, on) != on) {
         srv_log(SRV_LOG_NOTICE, on ? "no one is tracked (%s): the idle animation takes over"
                                    : "tracking again (%s)", why);
+        srv_metrics_count(on ? &p->m->to_idle : &p->m->to_tracked, 1);
+    }
 }
 
 static void *synth_main(void *arg)
@@ -702,7 +747,10 @@ static void *synth_main(void *arg)
     float *xyz = calloc((size_t)count * 3 + 3, sizeof(float));
     uint8_t *valid = calloc((size_t)count + 1, 1);
     uint64_t t_start = srv_now_us(), next_tick = t_start, last_frame = t_start;
+    p->t_start_us = t_start;
+    p->fade_start_us = 0;
     int failed = 0; /* consecutive frames the tracked kind could not synthesise */
+    uint64_t failing_since = 0; /* when the first of them came */
     uint64_t last_capture = 0; /* of the markers in xyz, valid */
     int have_markers = 0;
     while (xyz && valid && !atomic_load(&p->stop)) {
@@ -712,10 +760,11 @@ static void *synth_main(void *arg)
         drv_state st = (drv_state)atomic_load(&p->src_state);
         const char *why = st == DRV_STATE_LOST    ? "the source is lost"
                         : st == DRV_STATE_ENDED   ? "the source ended"
-                        : !atomic_load(&p->paused) && now - last_frame > SRV_IDLE_AFTER_US
+                        : !atomic_load(&p->paused) && now - last_frame > p->idle_after_us
                             ? "no source frames"
-                        : failed >= (int)b->clock_fps ? "the markers do not allow a pose"
-                                                      : NULL;
+                        : failed && now - failing_since >= p->idle_after_us
+                            ? "the markers do not allow a pose"
+                            : NULL;
         int idle = !clocked && b->idle && why;
         uint64_t deadline = clocked || idle ? next_tick : now + 100000u;
         uint64_t t_capture = 0;
@@ -741,8 +790,8 @@ static void *synth_main(void *arg)
                 if (synth_tracked(p, b, xyz, valid, t_capture) == 0) {
                     failed = 0;
                     set_idle(p, 0, "a pose from the markers");
-                } else {
-                    failed++;
+                } else if (!failed++) {
+                    failing_since = now;
                 }
                 continue;
             }

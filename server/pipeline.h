@@ -8,9 +8,12 @@
  * its model's fps instead of at the source's frames. A bundle may also hold an *idle* synthesis:
  * the clock-driven kind of the same model file (so the same mesh, and no new hello when it takes
  * over), which the synthesis thread runs whenever no one is tracked: the source is lost or ended,
- * no source frame came for SRV_IDLE_AFTER_US (unless a client paused it: a paused replay holds
- * its pose), or the tracked kind cannot synthesise (no reference
- * yet, every marker invalid). Its frames carry SRV_FLAG_IDLE.
+ * no source frame came for idle_after seconds (unless a client paused it: a paused replay holds
+ * its pose), or the tracked kind could not synthesise for idle_after seconds (no reference yet,
+ * every marker invalid). Its frames carry SRV_FLAG_IDLE. When tracking returns, the output
+ * cross-fades from the idle animation (still running) to the tracked pose over `fade` seconds
+ * (srv_pipeline_set_idle): smoothstep weights on the two vertex sets, frames without a compact
+ * form (params clients get int16 for those).
  * wake() is lws_cancel_service in the daemon (the only lws call made from these threads).
  * Per frame nothing is allocated: buffers come with the generation (srv_pipeline_load).
  *
@@ -34,9 +37,6 @@
 #define SRV_CTL_QUEUE 32
 
 typedef struct srv_pipeline srv_pipeline;
-
-/* After this long without a source frame the idle synthesis takes over (when there is one). */
-#define SRV_IDLE_AFTER_US 1000000u
 
 /* What the daemon knows of its source, copied once at start so that other threads never read the
  * drv_source that the source thread reopens (names, fps and the scheme cannot change on a reopen:
@@ -70,6 +70,7 @@ typedef struct srv_bundle {
     int layout_idle;    /* the same for idle */
     float *prm;         /* the largest layout's floats: one frame's parameters */
     float *V;           /* nv x 3 */
+    float *V_idle;      /* nv x 3 when there is an idle synthesis: its pose during a fade */
     float *mk;          /* nm x 3, model marker order */
     uint8_t *mv;        /* nm */
 } srv_bundle;
@@ -94,6 +95,9 @@ int srv_pipeline_create(drv_source *src, srv_source_info *si, srv_bundle *b, srv
                         const char *record, void (*wake)(void *), void *wake_ud,
                         srv_pipeline **out, char *err);
 int srv_pipeline_start(srv_pipeline *p, char *err);
+/* The idle animation's hand-over (daemon_config.h idle_after, fade; defaults 2 s and 0.5 s);
+ * before srv_pipeline_start. */
+void srv_pipeline_set_idle(srv_pipeline *p, double idle_after_s, double fade_s);
 /* Stops the threads, writes the recording (its error goes to err), keeps the object. */
 int srv_pipeline_stop(srv_pipeline *p, char *err);
 void srv_pipeline_destroy(srv_pipeline *p);

@@ -17,7 +17,8 @@
  *     old model keeps serving) and a good one (the new generation is swapped in); every 5 s
  *     during the warm-up;
  *   - the source vanishes: the sender goes quiet for 3 s at 45 s and then every 300 s. After 1 s
- *     without frames the daemon's idle animation takes over, and tracking resumes when the
+ *     without frames (--idle-after 1) the daemon's idle animation takes over, and tracking resumes
+ *     (with the default 0.5 s cross-fade) when the
  *     markers return (both are checked in its log).
  * Every minute one line: daemon RSS, the live clients' frames/s (slowest and mean) over that
  * minute, noise replies (pongs, acks, errors), reloads, stalled clients replaced, errors.
@@ -364,7 +365,7 @@ int main(int argc, char **argv)
     char maxm[16];
     snprintf(maxm, sizeof maxm, "%d", MAX_MESSAGE);
     const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0",
-                          "--encoding", "int16", "--max-message", maxm, NULL};
+                          "--encoding", "int16", "--max-message", maxm, "--idle-after", "1", NULL};
     harness_start(&H, meshsteerd, args);
     uint64_t t0 = wsc_now_us();
     snd.t0 = t0;

@@ -518,6 +518,159 @@ static void scenario_kinds(void)
     wsc_free(B);
 }
 
+/* ------------------------------------------------------------------ fade */
+
+/* The largest vertex displacement between frames k-1 and k of A. */
+static double frame_step(const wsc *A, int k)
+{
+    const float *a = A->frames[k - 1].V, *b = A->frames[k].V;
+    double d = 0;
+    for (int i = 0; i < A->nv && a && b; i++) {
+        double dx = a[3 * i] - b[3 * i], dy = a[3 * i + 1] - b[3 * i + 1], dz = a[3 * i + 2] - b[3 * i + 2];
+        d = fmax(d, sqrt(dx * dx + dy * dy + dz * dz));
+    }
+    return d;
+}
+
+typedef struct fade_run {
+    int idle_before;   /* idle frames before the first tracked one */
+    int first_tracked; /* its index (-1: none) */
+    double cut;        /* largest step over the first 3 tracked frames */
+    double across;     /* largest step over the first 1.2 s of tracked frames */
+    double motion;     /* median step of tracked frames after that */
+    int switches_idle, switches_tracked; /* /metrics */
+} fade_run;
+
+/* The first blank + keep frames of trot.csv, the first `blank` with every marker invalid (empty
+ * cells): the tracked kind cannot pose them, and then it can. */
+static void write_blanked(const char *from, const char *to, int blank, int keep)
+{
+    FILE *in = fopen(from, "r"), *out = fopen(to, "w");
+    ASSERT(in && out);
+    char line[16384];
+    for (int row = -1; row < blank + keep && fgets(line, sizeof line, in); row++) {
+        if (row >= 0 && row < blank) { /* keep frame,time; empty the rest */
+            char *c = strchr(line, ',');
+            c = c ? strchr(c + 1, ',') : NULL;
+            ASSERT(c);
+            for (char *q = c; *q && *q != '\n'; q++)
+                if (*q != ',')
+                    *q = ' ';
+            char *w = c, *r = c; /* drop the blanks */
+            for (; *r; r++)
+                if (*r != ' ')
+                    *w++ = *r;
+            *w = 0;
+        }
+        fputs(line, out);
+    }
+    fclose(in);
+    ASSERT_INT_EQ(fclose(out), 0);
+}
+
+static void run_fade(struct lws_context *ctx, const char *source, const char *idle_after,
+                     const char *fade, fade_run *r)
+{
+    char model[1200], *body = NULL;
+    snprintf(model, sizeof model, "%s/two-kinds.msm", H.dir);
+    const char *args[] = {"--model", model, "--source", source, "--listen", "127.0.0.1:0",
+                          "--idle-after", idle_after, "--fade", fade, "-v", NULL};
+    harness_start(&H, meshsteerd, args);
+    wsc *A = wsc_connect(ctx, H.port, NULL, 1);
+    /* 60 blank frames (2 s at the example's 30 Hz) then 75 tracked (2.5 s), then the replay ends:
+     * idle again */
+    want w = {A, 0, 0, 0, 0, -1};
+    uint64_t t0 = wsc_now_us();
+    int seen_tracked_then_idle = 0;
+    while (!seen_tracked_then_idle && wsc_now_us() - t0 < (sanitized ? 60000000u : 20000000u)) {
+        w.frames = A->total_frames + 1;
+        wsc_run(ctx, 1000, enough, &w);
+        int tracked = 0;
+        for (int i = 0; i < A->nframes; i++) {
+            tracked |= !(A->frames[i].flags & 8);
+            if (tracked && (A->frames[i].flags & 8) && i >= 10)
+                seen_tracked_then_idle = 1;
+        }
+    }
+    memset(r, 0, sizeof *r);
+    r->first_tracked = -1;
+    for (int i = 0; i < A->nframes && r->first_tracked < 0; i++) {
+        if (A->frames[i].flags & 8)
+            r->idle_before++;
+        else
+            r->first_tracked = i;
+    }
+    ASSERT(r->first_tracked >= 0);
+    int k0 = r->first_tracked, end = k0;
+    while (end < A->nframes && !(A->frames[end].flags & 8))
+        end++;
+    double steps[512];
+    int ns = 0;
+    for (int k = k0 > 0 ? k0 : 1; k < end; k++) {
+        double d = frame_step(A, k);
+        double since = (double)(A->frames[k].t_capture - A->frames[k0].t_capture) * 1e-6;
+        if (k < k0 + 3)
+            r->cut = fmax(r->cut, d);
+        if (since <= 1.2)
+            r->across = fmax(r->across, d);
+        else if (ns < 512)
+            steps[ns++] = d;
+    }
+    for (int i = 1; i < ns; i++) /* insertion sort: a median of a few dozen */
+        for (int j = i; j > 0 && steps[j - 1] > steps[j]; j--) {
+            double t = steps[j];
+            steps[j] = steps[j - 1];
+            steps[j - 1] = t;
+        }
+    r->motion = ns ? steps[ns / 2] : 0;
+    ASSERT_INT_EQ(harness_get(&H, "/metrics", &body), 200);
+    const char *a = strstr(body, "meshsteer_driver_switches_total{to=\"idle\"} ");
+    const char *b = strstr(body, "meshsteer_driver_switches_total{to=\"tracked\"} ");
+    ASSERT(a && b);
+    r->switches_idle = atoi(a + strlen("meshsteer_driver_switches_total{to=\"idle\"} "));
+    r->switches_tracked = atoi(b + strlen("meshsteer_driver_switches_total{to=\"tracked\"} "));
+    free(body);
+    printf("fade: --idle-after %s --fade %s: %d idle frames before the first tracked one; largest "
+           "step %.4f over its first 3 frames, %.4f over its first 1.2 s, median step after %.4f; "
+           "switches to idle %d, to tracked %d\n",
+           idle_after, fade, r->idle_before, r->cut, r->across, r->motion, r->switches_idle,
+           r->switches_tracked);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(A);
+}
+
+/* --idle-after and --fade (Zheng 2013's idle source, issue 11): a replay whose first 2 s of
+ * markers are all invalid. With --idle-after 1 the idle animation takes over after 1 s of
+ * refused frames, until the markers allow a pose; with --fade 0 the tracked pose then comes as a
+ * cut (a jump), with --fade 1 the output blends from the still-running idle animation, so no step
+ * in that second comes near the cut. With --idle-after 4 the 2 s of invalid markers are too
+ * short for the idle animation: nothing idle before the first tracked frame. */
+static void scenario_fade(void)
+{
+    char from[1200], csv[1200], source[1300];
+    snprintf(from, sizeof from, "%s/trot.csv", H.dir);
+    snprintf(csv, sizeof csv, "%s/trot-blank.csv", H.dir);
+    write_blanked(from, csv, 60, 75);
+    snprintf(source, sizeof source, "replay:%s", csv);
+    fade_run cut, fade, late;
+    run_fade(wsc_context(), source, "1", "0", &cut);
+    run_fade(wsc_context(), source, "1", "1", &fade);
+    run_fade(wsc_context(), source, "4", "0.5", &late);
+    /* idle after 1 s of the 2 s: about 30 idle frames at the skin's 30 fps */
+    ASSERT_INT_GE(cut.idle_before, sanitized ? 8 : 20);
+    ASSERT_INT_LE(cut.idle_before, 45);
+    ASSERT_INT_GE(fade.idle_before, sanitized ? 8 : 20);
+    ASSERT(cut.switches_idle >= 1 && cut.switches_tracked >= 1);
+    /* the cut is a jump well above the motion's own steps, or this test could not tell */
+    ASSERT(cut.cut > 4 * cut.motion);
+    /* the fade spreads it: every step of that second well under the cut */
+    ASSERT(fade.across < 0.5 * cut.cut);
+    /* --idle-after 4: tracked from the first frame on */
+    ASSERT_INT_EQ(late.idle_before, 0);
+    ASSERT_INT_EQ(late.first_tracked, 0);
+}
+
 /* ------------------------------------------------------------------ params */
 
 static size_t frame_bytes(const wsc *c, int enc, int nparams)
@@ -1732,6 +1885,8 @@ int main(int argc, char **argv)
         scenario_idle();
     else if (!strcmp(argv[3], "kinds"))
         scenario_kinds();
+    else if (!strcmp(argv[3], "fade"))
+        scenario_fade();
     else if (!strcmp(argv[3], "params"))
         scenario_params(argc == 5 ? argv[4] : NULL);
     else if (!strcmp(argv[3], "config"))

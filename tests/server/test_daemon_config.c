@@ -107,6 +107,18 @@ int main(void)
     ASSERT(!strcmp(c.listen_host, "::1"));
     ASSERT_INT_EQ(c.port, 7000);
     ASSERT(srv_config_set(&c, "max_clients", "20000", err) == -ERANGE);
+    /* the idle hand-over: seconds, decimals allowed, each range checked */
+    ASSERT(c.idle_after == 2.0 && c.fade == 0.5);
+    ASSERT_OK(srv_config_set(&c, "idle_after", "0.25", err), err);
+    ASSERT_OK(srv_config_set(&c, "fade", "0", err), err);
+    ASSERT(c.idle_after == 0.25 && c.fade == 0);
+    ASSERT(srv_config_set(&c, "idle_after", "0.01", err) == -ERANGE);
+    ASSERT(strstr(err, "idle_after: 0.01 outside [0.1, 3600] seconds"));
+    ASSERT(srv_config_set(&c, "fade", "-1", err) == -ERANGE);
+    ASSERT(srv_config_set(&c, "fade", "nan", err) == -EINVAL);
+    ASSERT(srv_config_set(&c, "idle_after", "2s", err) == -EINVAL);
+    ASSERT(strstr(err, "idle_after: '2s' is not a number of seconds"));
+    ASSERT(c.idle_after == 0.25 && c.fade == 0); /* refused values change nothing */
     ASSERT_OK(srv_config_set(&c, "labels", "LeftToe_End=lfoot", err), err);
     ASSERT(!strcmp(c.labels, "LeftToe_End=lfoot"));
     ASSERT_OK(srv_config_set(&c, "labels", "", err), err); /* clears the map */
