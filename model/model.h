@@ -487,6 +487,16 @@ int mdl_skin_get(const mdl_model *m, int *nb, int *K, int *nframes, const int **
  * N / fps equal to frame 0, so that an engine looping the clip plays the skin's loop (frame N - 1
  * to frame 0 in one frame's time) instead of jumping; 0: the clip ends at frame N - 1. K <= 4. */
 int mdl_skin_write_gltf(const mdl_model *m, const char *path, int close_loop, char *err);
+/* The same writer, clip by clip (several animations on one skinned mesh, e.g. the variations):
+ * begin takes the skin's mesh, weights and rest (K <= 4); each clip is `frames` bone transforms
+ * (frames x nb x 12, as mdl_skin_get's T) at fps, as one animation named `name` (close_loop as
+ * above); write makes the .glb (the writer can take more clips after); free frees. */
+typedef struct mdl_gltf mdl_gltf;
+int mdl_gltf_begin(const mdl_model *m, mdl_gltf **out, char *err);
+int mdl_gltf_add_clip(mdl_gltf *g, const char *name, const double *T, int frames, double fps,
+                      int close_loop, char *err);
+int mdl_gltf_write(mdl_gltf *g, const char *path, char *err);
+void mdl_gltf_free(mdl_gltf *g);
 
 /* ------------------------------------------------------------------ variations (Zheng 2013, variations/) */
 

@@ -63,6 +63,9 @@ static const char usage_text[] =
     "                        depend on T\n"
     "  --pc2 K               write the skinned meshes of the first K variations only\n"
     "                        (default: all; 0: bone motions only)\n"
+    "  --gltf                also OUT_DIR/variations.glb: the skinned mesh with one animation\n"
+    "                        per variation written as PC2 (the first K of --pc2), glTF 2.0\n"
+    "                        as `meshsteer skin --gltf` writes it (docs/MODEL.md)\n"
     "  -o OUT_DIR            directory for the files (created)\n"
     "  --add-to MODEL.msm    make the skin in MODEL.msm play an endless random walk (the given\n"
     "                        options, --seed S) instead of looping its frames, and rewrite the\n"
@@ -338,7 +341,7 @@ static int add_components(cJSON *jo, const mdl_variations *v, const mdl_variatio
 int cmd_variations(int argc, char **argv)
 {
     const char *cmd = "variations", *modelp = NULL, *outdir = NULL, *addto = NULL;
-    int count = 0, frames = 0, seed = 1, json = 0, end = -1, npc2 = -1, ntargets = 0;
+    int count = 0, frames = 0, seed = 1, json = 0, end = -1, npc2 = -1, ntargets = 0, gltf = 0;
     int threads = (int)sysconf(_SC_NPROCESSORS_ONLN);
     double max_overlap = 0.9;
     mdl_variations_target targets[258];
@@ -347,7 +350,7 @@ int cmd_variations(int argc, char **argv)
     vo.components = 0;
     enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_JUMP, O_TEMP,
            O_MINSEG, O_START, O_JSON, O_ADD, O_COMP, O_TEF, O_END, O_TARGET, O_THREADS, O_PC2,
-           O_OVERLAP, O_GROUND };
+           O_OVERLAP, O_GROUND, O_GLTF };
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},         {"count", 1, 0, O_COUNT},   {"frames", 1, 0, O_FRAMES},
         {"seed", 1, 0, O_SEED},           {"threshold", 1, 0, O_THRESH},
@@ -357,6 +360,7 @@ int cmd_variations(int argc, char **argv)
         {"add-to", 1, 0, O_ADD},          {"components", 1, 0, O_COMP},
         {"te-factor", 1, 0, O_TEF},       {"end", 1, 0, O_END},       {"target", 1, 0, O_TARGET},
         {"ground", 0, 0, O_GROUND},       {"threads", 1, 0, O_THREADS},     {"pc2", 1, 0, O_PC2},       {"max-overlap", 1, 0, O_OVERLAP},
+        {"gltf", 0, 0, O_GLTF},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -374,6 +378,7 @@ int cmd_variations(int argc, char **argv)
         case O_MINSEG: if (cli_parse_int(cmd, "--min-segment", optarg, &vo.min_segment)) return CLI_EXIT_USAGE; break;
         case O_START: if (cli_parse_int(cmd, "--start", optarg, &vo.start)) return CLI_EXIT_USAGE; break;
         case O_JSON: json = 1; break;
+        case O_GLTF: gltf = 1; break;
         case O_ADD: addto = optarg; break;
         case O_COMP:
             if (!strcmp(optarg, "auto"))
@@ -417,6 +422,8 @@ int cmd_variations(int argc, char **argv)
                                "--temperature, --min-segment, --start, --te-factor, --end, --threads, --pc2 or "
                                "--max-overlap out of range");
 
+    if (gltf && npc2 == 0)
+        return cli_usage_error(cmd, "--gltf animates the variations --pc2 writes; --pc2 0 leaves none");
     char err[MDL_ERR_LEN] = "";
     int status = CLI_EXIT_USAGE;
     mdl_model *model = NULL;
@@ -425,6 +432,8 @@ int cmd_variations(int argc, char **argv)
     float *V = NULL;
     int *src = NULL;
     cJSON *jo = NULL, *jvars = NULL;
+    mdl_gltf *glb = NULL;
+    char gpath[4096] = "";
     if (mdl_model_load(modelp, &model, err)) {
         cli_fail(cmd, status, "%s", err);
         goto out;
@@ -529,6 +538,17 @@ int cmd_variations(int argc, char **argv)
             fclose(bf);
         goto out;
     }
+    if (gltf && npc2 > 0) {
+        snprintf(gpath, sizeof gpath, "%s/variations.glb", outdir);
+        if ((rc = mdl_gltf_begin(model, &glb, err))) {
+            status = cli_fail(cmd, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s: %s", gpath, err);
+            free(seeds);
+            free(rcs);
+            free(errs);
+            fclose(bf);
+            goto out;
+        }
+    }
     double ej, ea, eamax, worst = 0, worst_acc = 0, floor_range[2], worst_floor = 0;
     example_motion(model, &ej, &ea, &eamax, floor_range);
     cli_pool pool = {threads};
@@ -584,6 +604,15 @@ int cmd_variations(int argc, char **argv)
             }
             if (k >= npc2)
                 continue;
+            if (glb) {
+                char name[32];
+                snprintf(name, sizeof name, "variation_%03d", k);
+                if (mdl_gltf_add_clip(glb, name, Tk, frames, info.fps > 0 ? info.fps : 30, 0, err)) {
+                    status = cli_fail(cmd, CLI_EXIT_FAIL, "%s: %s", gpath, err);
+                    bad = 1;
+                    break;
+                }
+            }
             for (int f = 0; f < frames; f++)
                 mdl_variations_skin_frame(v, Tk + (size_t)f * nb * 12, V + 3 * (size_t)f * info.nv);
             char path[4096];
@@ -661,6 +690,10 @@ int cmd_variations(int argc, char **argv)
     }
     if (bad)
         goto out;
+    if (glb && mdl_gltf_write(glb, gpath, err)) {
+        status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
+        goto out;
+    }
     clock_gettime(CLOCK_MONOTONIC, &t1);
     if (jo) {
         cJSON_AddNumberToObject(jo, "bones", st.bones);
@@ -713,6 +746,8 @@ int cmd_variations(int argc, char **argv)
         cJSON_AddNumberToObject(jo, "overlap_kept_over", over);
         cJSON_AddNumberToObject(jo, "pc2_written", npc2);
         cJSON_AddStringToObject(jo, "bones_file", bpath);
+        if (glb)
+            cJSON_AddStringToObject(jo, "gltf", gpath);
         cJSON_AddItemToObject(jo, "variations", jvars);
         jvars = NULL;
         int pr = cli_print_json(jo);
@@ -726,6 +761,7 @@ int cmd_variations(int argc, char **argv)
 out:
     cJSON_Delete(jvars);
     cJSON_Delete(jo);
+    mdl_gltf_free(glb);
     free(T);
     free(V);
     free(src);

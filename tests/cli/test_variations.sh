@@ -71,6 +71,20 @@ cmp -s "$dir/t1/variations.bones" "$dir/t2/variations.bones" || fail "--threads 
 cmp -s <(head -c "$(stat -c %s "$dir/b/variations.bones")" "$dir/t1/variations.bones" | tail -c +29 | head -c 1000) \
        <(tail -c +29 "$dir/b/variations.bones" | head -c 1000) || fail "the first variation depends on --count"
 ! ls "$dir/t1"/*.pc2 >/dev/null 2>&1 || fail "--pc2 0 wrote meshes"
+# --gltf: the variations written as PC2 as animations of one skinned mesh (three.js reads them in
+# gltf_three); assimp, the second reader, sees the two; --pc2 0 leaves none to animate
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --pc2 2 --gltf -o "$dir/g" --json
+grep -q "\"gltf\":[[:space:]]*\"$dir/g/variations.glb\"" "$dir/out" || fail "--json does not name the glb"
+[ -s "$dir/g/variations.glb" ] || fail "--gltf wrote no variations.glb"
+if command -v assimp >/dev/null; then
+    assimp info "$dir/g/variations.glb" >"$dir/assimp.txt" 2>&1 || { cat "$dir/assimp.txt"; fail "assimp cannot read variations.glb"; }
+    for want in "Bones: *8" "Animations: *2"; do
+        grep -q "$want" "$dir/assimp.txt" || { cat "$dir/assimp.txt"; fail "assimp: no '$want' in variations.glb"; }
+    done
+    echo "assimp reads variations.glb: 8 bones, 2 animations"
+fi
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 2 --frames 10 --pc2 0 --gltf -o "$dir/g0"
+grep -q -- "--pc2 0" "$dir/err" || fail "--gltf with --pc2 0 is not refused with a reason"
 # targeted frames: --start, --end and --target met exactly in every variation (the example
 # loops every 75 frames and its transitions keep that phase: input = 10 + output mod 75)
 expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 6 --frames 120 --start 10 --end 54 \

@@ -12,6 +12,11 @@
  *     nv, nsel (3), diag (rest bounding-box diagonal), fps,
  *     nsel x (frame index, time f / fps),
  *     nsel x nv x 3 positions.
+ * Then the variations' glTF (`meshsteer variations --gltf`, Zheng 2013): a skin of a 90-frame take
+ * of the example (one loop is 75 frames), two walks of 60 frames (seeds 1, 2) as two animations of
+ * OUT/variations.glb (mdl_gltf_begin / mdl_gltf_add_clip), and OUT/variations.bin with frames 0,
+ * 30, 59 of each skinned by the walk's own skinning (mdl_variations_skin_frame), the same layout
+ * as expected.bin with nsel = 6 (animation-major) and a frame index a * 1000 + f.
  * Usage: gltf_fixture OUTDIR */
 #include "model.h"
 
@@ -23,6 +28,92 @@
 #define NFRAMES 48
 #define NBONES 8
 #define NINFL 4
+
+#define VAR_TAKE 90
+#define VAR_FRAMES 60
+
+/* OUT/variations.glb and OUT/variations.bin (the header). */
+static int variations(const char *dir, char *err)
+{
+    mdl_meshseq *seq = NULL;
+    if (mdl_example_create(VAR_TAKE, &seq, NULL, err))
+        return -1;
+    int frames[VAR_TAKE];
+    for (int f = 0; f < VAR_TAKE; f++)
+        frames[f] = f;
+    mdl_skin_opts o;
+    mdl_skin_opts_default(&o);
+    o.bones = NBONES;
+    o.max_influences = NINFL;
+    o.name = "example";
+    mdl_model *m = NULL;
+    mdl_variations *v = NULL;
+    mdl_gltf *g = NULL;
+    if (mdl_skin_fit(seq, frames, VAR_TAKE, &o, &m, err) || mdl_variations_build(m, NULL, &v, err) ||
+        mdl_gltf_begin(m, &g, err))
+        return -1;
+    mdl_model_info info;
+    mdl_model_get_info(m, &info);
+    mdl_variations_stats st;
+    mdl_variations_get_stats(v, &st);
+    int nv = info.nv, nb = st.bones;
+    double fps = info.fps > 0 ? info.fps : 30;
+    double *T = calloc((size_t)VAR_FRAMES * nb * 12, sizeof *T);
+    int *src = calloc((size_t)VAR_FRAMES * (st.components > 0 ? st.components : 1), sizeof *src);
+    const int sel[3] = {0, VAR_FRAMES / 2, VAR_FRAMES - 1};
+    size_t nd = 4 + 2 * 6 + 6 * 3 * (size_t)nv;
+    double *out = calloc(nd, sizeof *out);
+    float *V = calloc(3 * (size_t)nv, sizeof *V);
+    if (!T || !src || !out || !V)
+        return -1;
+    double mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int i = 0; i < nv; i++)
+        for (int c = 0; c < 3; c++) {
+            mn[c] = fmin(mn[c], info.rest[3 * i + c]);
+            mx[c] = fmax(mx[c], info.rest[3 * i + c]);
+        }
+    out[0] = nv;
+    out[1] = 6;
+    out[2] = sqrt((mx[0] - mn[0]) * (mx[0] - mn[0]) + (mx[1] - mn[1]) * (mx[1] - mn[1]) +
+                  (mx[2] - mn[2]) * (mx[2] - mn[2]));
+    out[3] = fps;
+    for (int a = 0; a < 2; a++) {
+        char name[32];
+        snprintf(name, sizeof name, "variation_%03d", a);
+        if (mdl_variations_walk(v, (uint64_t)(1 + a), VAR_FRAMES, T, NULL, src, err) ||
+            mdl_gltf_add_clip(g, name, T, VAR_FRAMES, fps, 0, err))
+            return -1;
+        for (int k = 0; k < 3; k++) {
+            int q = 3 * a + k, f = sel[k];
+            out[4 + 2 * q] = a * 1000 + f;
+            out[5 + 2 * q] = f / fps;
+            mdl_variations_skin_frame(v, T + (size_t)f * nb * 12, V);
+            for (size_t i = 0; i < 3 * (size_t)nv; i++)
+                out[16 + 3 * (size_t)nv * q + i] = V[i];
+        }
+    }
+    char path[4096];
+    snprintf(path, sizeof path, "%s/variations.glb", dir);
+    if (mdl_gltf_write(g, path, err))
+        return -1;
+    snprintf(path, sizeof path, "%s/variations.bin", dir);
+    FILE *fp = fopen(path, "wb");
+    if (!fp || fwrite(out, sizeof *out, nd, fp) != nd || fclose(fp)) {
+        snprintf(err, MDL_ERR_LEN, "%.400s: write failed", path);
+        return -1;
+    }
+    printf("variations: 2 walks of %d frames on a %d-frame skin (%d transitions) as two animations\n",
+           VAR_FRAMES, VAR_TAKE, st.transitions);
+    mdl_gltf_free(g);
+    mdl_variations_destroy(v);
+    mdl_model_destroy(m);
+    mdl_meshseq_destroy(seq);
+    free(T);
+    free(src);
+    free(out);
+    free(V);
+    return 0;
+}
 
 int main(int argc, char **argv)
 {
@@ -124,6 +215,10 @@ int main(int argc, char **argv)
         printf("frame %d (t = %.6f s): clock synthesis vs reconstruction, max |d| %.3g (%.3g of the "
                "diagonal)\n",
                f, f / fps, e, e / diag);
+    }
+    if (variations(argv[1], err)) {
+        fprintf(stderr, "variations: %s\n", err);
+        return 1;
     }
     mdl_skin_stats st;
     mdl_skin_get_stats(m, &st);

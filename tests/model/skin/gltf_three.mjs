@@ -65,14 +65,14 @@ const page = `<!doctype html><html><head><meta charset="utf-8">
 <script type="module">
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-window.skinned = async (file, frames) => {
+window.skinned = async (file, frames, anim = 0, nanims = 1) => {
   const gltf = await new GLTFLoader().loadAsync('/out/' + file);
   const scene = gltf.scene;
   let mesh = null;
   scene.traverse(o => { if (o.isSkinnedMesh) mesh = o; });
   if (!mesh) throw new Error('no SkinnedMesh in skin.glb');
-  if (gltf.animations.length !== 1) throw new Error(gltf.animations.length + ' animations, not 1');
-  const clip = gltf.animations[0];
+  if (gltf.animations.length !== nanims) throw new Error(gltf.animations.length + ' animations, not ' + nanims);
+  const clip = gltf.animations[anim];
   const info = {
     vertices: mesh.geometry.attributes.position.count,
     joints: mesh.skeleton.bones.map(b => b.name),
@@ -187,6 +187,28 @@ try {
     check(Math.abs(fr.time - want[q].time) < 1e-6, `frame ${fr.frame}${name}: key time`);
     check(ok, `frame ${fr.frame}: skinned positions differ`);
   });
+  // variations.glb: two walks as two animations on one skinned mesh; frames 0, 30, 59 of each
+  // against the walks' own skinning (variations.bin, gltf_fixture.c)
+  const vb = readFileSync(join(out, 'variations.bin'));
+  const vx = new Float64Array(vb.buffer, vb.byteOffset, vb.byteLength / 8);
+  const vnv = vx[0], vsel = vx[1], vdiag = vx[2];
+  for (let a = 0; a < 2; a++) {
+    const fr = [0, 1, 2].map(k => vx[4 + 2 * (3 * a + k)] - 1000 * a);
+    const got = await pg.evaluate(x => window.skinned(x.file, x.frames, x.anim, 2),
+                                  { file: 'variations.glb', frames: fr, anim: a });
+    check(got.clip === `variation_${String(a).padStart(3, '0')}`, `animation ${a} is named ${got.clip}`);
+    check(got.keys === 60, `variation ${a}: ${got.keys} keys, not 60`);
+    got.frames.forEach((g, k) => {
+      const q = 3 * a + k, e = vx.subarray(4 + 2 * vsel + 3 * vnv * q, 4 + 2 * vsel + 3 * vnv * (q + 1));
+      let max = 0;
+      for (let i = 0; i < vnv; i++)
+        max = Math.max(max, Math.hypot(g.pos[3 * i] - e[3 * i], g.pos[3 * i + 1] - e[3 * i + 1],
+                                       g.pos[3 * i + 2] - e[3 * i + 2]));
+      console.log(`variations.glb animation ${a} ("${got.clip}") frame ${g.frame}: max error ` +
+                  `${max.toExponential(3)} (${(max / vdiag).toExponential(3)} of the diagonal)`);
+      check(max <= 1e-4 * vdiag, `variation ${a} frame ${g.frame}: skinned positions differ`);
+    });
+  }
 } catch (e) {
   console.log(`FAIL: ${e.stack || e}`);
   failed = true;
