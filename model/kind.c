@@ -331,6 +331,14 @@ int mdl_synth_params_layout(const mdl_synth *s, mdl_params_layout *out)
     return rc;
 }
 
+void mdl_synth_marker_placement(const mdl_synth *s, double *scale, double t[3])
+{
+    *scale = 1;
+    t[0] = t[1] = t[2] = 0;
+    if (s->ops->synth_marker_placement)
+        s->ops->synth_marker_placement(s->state, scale, t);
+}
+
 int mdl_synth_params(const mdl_synth *s, float *out)
 {
     return s->ops->synth_params ? s->ops->synth_params(s->state, out) : -ENOTSUP;

@@ -42,6 +42,9 @@ typedef struct mdl_kind_ops {
      * has none. params fills layout.nparams floats from the last frame, -EAGAIN before one. */
     int (*synth_params_layout)(const void *state, mdl_params_layout *out);
     int (*synth_params)(const void *state, float *out);
+    /* Where the synthesis puts its input markers: p' = scale p + t (mdl_synth_marker_placement);
+     * NULL for a kind that reads them as they are. */
+    void (*synth_marker_placement)(const void *state, double *scale, double t[3]);
 
     /* Quality against ground truth (model.h, mdl_eval_run); NULL when the kind has none. */
     int (*eval)(const mdl_model *m, const mdl_meshseq *seq, const int *frames, int n,

@@ -382,6 +382,10 @@ int mdl_synth_params_layout(const mdl_synth *s, mdl_params_layout *out);
  * (w, x, y, z) of R_i, t_i (3), then lambda_i (k of its shape), layout.nparams floats into out.
  * -ENOTSUP without a compact form, -EAGAIN before the first frame. Allocates nothing. */
 int mdl_synth_params(const mdl_synth *s, float *out);
+/* The similarity a kind applies to the markers it reads before using them, p' = scale p + t
+ * (harmonic: the template's alignment to the target, Sec. 5; others: the identity), so that a
+ * viewer can draw the markers where the model sees them, beside its mesh. */
+void mdl_synth_marker_placement(const mdl_synth *s, double *scale, double t[3]);
 
 /* Limits BLAS to n threads (the daemon and the benchmarks own their threads: n = 1). */
 void mdl_set_blas_threads(int n);

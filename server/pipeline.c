@@ -247,6 +247,7 @@ int srv_pipeline_load(const char *model_path, const char *labels, const srv_sour
         return srv_err(err, r, "model %s: synthesis: %s", model_path, e);
     }
     out->inputs = mdl_synth_inputs(out->synth);
+    mdl_synth_marker_placement(out->synth, &out->mk_scale, out->mk_t);
     out->clock_fps = info.fps > 0 && info.fps <= 240 ? info.fps : 30;
     out->nm = info.inputs & MDL_INPUT_MARKERS ? info.nmarkers : 0;
     size_t nm1 = (size_t)out->nm + 1;
@@ -702,6 +703,12 @@ static int synth_tracked(srv_pipeline *p, srv_bundle *b, const float *xyz, const
     uint64_t t0 = srv_now_us();
     mdl_synth_info si = {0};
     int r = mdl_synth_markers(b->synth, b->mk, b->mv, b->V, &si); /* V kept when refused */
+    /* the frame's markers where the model placed them (a harmonic model's template is aligned
+     * to its target), so that a viewer draws them on the mesh */
+    if (b->mk_scale != 1 || b->mk_t[0] != 0 || b->mk_t[1] != 0 || b->mk_t[2] != 0)
+        for (int i = 0; i < b->nm; i++)
+            for (int a = 0; a < 3 && b->mv[i]; a++)
+                b->mk[i * 3 + a] = (float)(b->mk_scale * b->mk[i * 3 + a] + b->mk_t[a]);
     synth_health(p, b, r);
     if (r != 0) {
         if (!b->idle) /* the last good pose again (the idle animation takes over otherwise) */

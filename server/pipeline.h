@@ -72,6 +72,7 @@ typedef struct srv_bundle {
     float *V;           /* nv x 3 */
     float *V_idle;      /* nv x 3 when there is an idle synthesis: its pose during a fade */
     float *mk;          /* nm x 3, model marker order */
+    double mk_scale, mk_t[3]; /* where synth places the markers (mdl_synth_marker_placement) */
     uint8_t *mv;        /* nm */
 } srv_bundle;
 

@@ -389,5 +389,6 @@ const mdl_kind_ops mdl__harmonic_kind = {
     .synth_frame = mdl__harmonic_synth_frame,
     .synth_reset = mdl__harmonic_synth_reset,
     .synth_destroy = mdl__harmonic_synth_destroy,
+    .synth_marker_placement = mdl__harmonic_synth_marker_placement,
     .eval = mdl__harmonic_eval,
 };

@@ -186,6 +186,7 @@ void mdl__tri_rotation(const float *A, const float *B, const uint32_t *f, double
 int mdl__harmonic_synth_create(const mdl_model *m, const void *impl, void **state, char *err);
 int mdl__harmonic_synth_frame(void *state, const mdl_synth_input *in, float *V, mdl_synth_info *info);
 void mdl__harmonic_synth_reset(void *state);
+void mdl__harmonic_synth_marker_placement(const void *state, double *scale, double t[3]);
 void mdl__harmonic_synth_destroy(void *state);
 /* A bone's rotation from its rest markers (a0, b0, twist c0 or NULL) to its current ones. */
 void mdl__harmonic_bone_quat(const float *a0, const float *b0, const float *c0, const float *a,

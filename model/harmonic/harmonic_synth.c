@@ -185,6 +185,14 @@ void mdl__harmonic_synth_reset(void *state)
     mdl__hdeform_reset(&s->d);
 }
 
+void mdl__harmonic_synth_marker_placement(const void *state, double *scale, double t[3])
+{
+    const hsynth *s = state;
+    *scale = s->h->align_scale;
+    for (int c = 0; c < 3; c++)
+        t[c] = s->h->align_t[c];
+}
+
 int mdl__harmonic_synth_frame(void *state, const mdl_synth_input *in, float *V, mdl_synth_info *info)
 {
     hsynth *s = state;

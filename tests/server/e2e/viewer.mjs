@@ -176,6 +176,23 @@ await drive(async page => {
       if (Math.hypot(v1[i] - v0[i], v1[i + 1] - v0[i + 1], v1[i + 2] - v0[i + 2]) > 1e-3) moved++;
     check(v1.length === 3 * s.nv && bad === 0, `${v1.length / 3} vertices, ${bad} not finite`);
     check(moved > s.nv / 10, `${moved} of ${s.nv} vertices moved by more than 1 mm in 1 s`);
+    // the frames' markers are where the model put the template (its alignment to the target,
+    // paper Sec. 5), on the mesh: inside its box grown by 15 % of the diagonal, not in mocap units
+    const mk = await page.evaluate(() => ({ m: window.meshsteerMarkers(), v: window.meshsteerVertices() }));
+    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+    for (let i = 0; i < mk.v.length; i++) { lo[i % 3] = Math.min(lo[i % 3], mk.v[i]); hi[i % 3] = Math.max(hi[i % 3], mk.v[i]); }
+    const diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+    let inside = 0, valid = 0, far = 0;
+    mk.m.valid.forEach((ok, i) => {
+      if (!ok) return;
+      valid++;
+      let d = 0;
+      for (let a = 0; a < 3; a++) d = Math.max(d, lo[a] - mk.m.xyz[3 * i + a], mk.m.xyz[3 * i + a] - hi[a]);
+      if (d <= 0.15 * diag) inside++;
+      far = Math.max(far, d);
+    });
+    check(valid > 0 && inside === valid,
+          `${inside} of ${valid} markers on the mesh (farthest ${far.toFixed(3)} outside its box, diagonal ${diag.toFixed(3)})`);
     await page.screenshot({ path: shot });
     console.log(`screenshot: ${shot}`);
   } else {
