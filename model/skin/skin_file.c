@@ -9,9 +9,11 @@
  *   f64 T[nframes nb 12]          R (row-major, orthonormal within 1e-6) then t, per frame, bone
  *   u32 iterations, f64 rmse, rmse_over_diag, max_err, diag, seconds
  * and, only when the synthesis walks the example's transition graph (mdl_variations_attach):
- *   u32 1, f64 svd_tol, tc_factor, threshold, u32 min_gap, blend, f64 jump_prob, temperature,
- *   u32 min_segment, i32 start, u64 seed          (mdl_variations_opts, model.h)
- * (readers before it refuse a chunk with the trailer: "bytes of it were not read")
+ *   u32 version (1 or 2), f64 svd_tol, tc_factor, threshold, u32 min_gap, blend, f64 jump_prob,
+ *   temperature, u32 min_segment, i32 start, u64 seed          (mdl_variations_opts, model.h)
+ *   version 2 also: u32 components (0 auto, 1 one), f64 te_factor, u32 ground (0 or 1)
+ * (version 1, written before the components were stored, walks one component without --ground;
+ * readers before the trailer refuse a chunk with it: "bytes of it were not read")
  * Loading checks every count, index, weight sum and rotation: a corrupt file gives a clear error. */
 #include "skin/skin_internal.h"
 #include "kind.h"
@@ -61,7 +63,7 @@ static void skin_save(const void *impl, const mdl_model *m, mdl__wbuf *b)
     mdl__put_f64(b, k->st.diag);
     mdl__put_f64(b, k->st.seconds);
     if (k->has_vars) {
-        mdl__put_u32(b, 1);
+        mdl__put_u32(b, 2);
         mdl__put_f64(b, k->vars.svd_tol);
         mdl__put_f64(b, k->vars.tc_factor);
         mdl__put_f64(b, k->vars.threshold);
@@ -72,6 +74,9 @@ static void skin_save(const void *impl, const mdl_model *m, mdl__wbuf *b)
         mdl__put_u32(b, (uint32_t)k->vars.min_segment);
         mdl__put_u32(b, (uint32_t)k->vars.start);
         mdl__put_u64(b, k->vars_seed);
+        mdl__put_u32(b, (uint32_t)k->vars.components);
+        mdl__put_f64(b, k->vars.te_factor);
+        mdl__put_u32(b, (uint32_t)k->vars.ground);
     }
 }
 
@@ -107,8 +112,10 @@ static int skin_parse(mdl__rbuf *b, const mdl_model *m, void **impl)
     k->st.diag = mdl__get_f64(b, "diag");
     k->st.seconds = mdl__get_f64(b, "seconds");
     if (!b->rc && b->at < b->n) {
-        k->has_vars = mdl__get_int(b, "variations flag", 1, 1);
-        mdl_variations_opts_default(&k->vars); /* the trailer stores no components: one */
+        int version = mdl__get_int(b, "variations flag", 1, 2);
+        k->has_vars = 1;
+        mdl_variations_opts_default(&k->vars);
+        k->vars.components = 1; /* version 1: one component, no ground */
         k->vars.svd_tol = mdl__get_f64(b, "variations svd_tol");
         k->vars.tc_factor = mdl__get_f64(b, "variations tc_factor");
         k->vars.threshold = mdl__get_f64(b, "variations threshold");
@@ -119,6 +126,13 @@ static int skin_parse(mdl__rbuf *b, const mdl_model *m, void **impl)
         k->vars.min_segment = mdl__get_int(b, "variations min_segment", 0, 1 << 24);
         k->vars.start = (int32_t)mdl__get_u32(b);
         k->vars_seed = mdl__get_u64(b);
+        if (version == 2) {
+            k->vars.components = mdl__get_int(b, "variations components", 0, 1);
+            k->vars.te_factor = mdl__get_f64(b, "variations te_factor");
+            k->vars.ground = mdl__get_int(b, "variations ground", 0, 1);
+            if (!b->rc && !(k->vars.te_factor >= 0 && k->vars.te_factor <= 1))
+                mdl__rfail(b, "variations te_factor out of range");
+        }
         if (!b->rc && (!(k->vars.svd_tol >= 0 && k->vars.svd_tol < 1) ||
                        !(k->vars.tc_factor > 0 || k->vars.threshold > 0) ||
                        !(k->vars.threshold >= 0) || !(k->vars.jump_prob >= 0 && k->vars.jump_prob <= 1) ||
@@ -194,7 +208,8 @@ static void skin_describe(const void *impl, const mdl_model *m, char *buf, size_
                  k->st.rmse, 100 * k->st.rmse_over_diag, k->st.diag, k->st.max_err);
     if (k->has_vars)
         mdl__appendf(buf, len, at, "plays      an endless random walk on the transition graph (Zheng "
-                     "2013), seed %llu\n", (unsigned long long)k->vars_seed);
+                     "2013), seed %llu, components %s%s\n", (unsigned long long)k->vars_seed,
+                     k->vars.components == 1 ? "1" : "auto", k->vars.ground ? ", ground" : "");
     else
         mdl__appendf(buf, len, at, "plays      the fitted frames, looping\n");
 }

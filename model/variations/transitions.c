@@ -400,24 +400,21 @@ int mdl_variations_attach(mdl_model *m, const mdl_variations_opts *o, uint64_t s
         one = *o;
     else
         mdl_variations_opts_default(&one);
-    one.components = 1;
     int rc = mdl_variations_build(m, &one, &v, err);
     if (rc)
         return rc;
-    int alive = v->nalive;
-    double tc = v->tc;
+    /* the walk the skin's synthesis will make must start (every component's graph can go on) */
+    mdl__vwalk w;
+    rc = mdl__vwalk_init(&w, v, seed, err);
+    if (!rc)
+        mdl__vwalk_fini(&w);
     mdl_variations_opts vo = v->o;
     mdl_variations_destroy(v);
-    if (alive < 1)
-        return mdl__err(err, -ENOENT,
-                        "variations: no transitions (T_c %.4g): the example cannot be extended", tc);
+    if (rc)
+        return rc;
     struct mdl_skin *k = slot->impl;
     k->has_vars = 1;
-    k->vars = vo;
-    /* the SKIN trailer stores no component options: the idle source walks one component */
-    k->vars.components = 1;
-    k->vars.te_factor = 0.1;
-    k->vars.ground = 0;
+    k->vars = vo; /* components, te_factor and ground included (the SKIN trailer's version 2) */
     k->vars_seed = seed;
     return 0;
 }

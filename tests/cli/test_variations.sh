@@ -107,7 +107,10 @@ expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --json
 [ "$(json_num "$dir/out" transitions)" -gt 0 ] || fail "--add-to --json: no transitions"
 expect_status 0 "$ms" inspect "$dir/both.msm"
 grep -q "steer (primary), skin" "$dir/out" || { cat "$dir/out"; fail "inspect does not list both kinds"; }
-grep -q "endless random walk.*seed 9" "$dir/out" || { cat "$dir/out"; fail "the skin does not walk"; }
+grep -q "endless random walk.*seed 9, components auto" "$dir/out" || { cat "$dir/out"; fail "the skin does not walk (components auto)"; }
+expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --components 1 --ground
+expect_status 0 "$ms" inspect "$dir/both.msm"
+grep -q "endless random walk.*seed 9, components 1, ground" "$dir/out" || { cat "$dir/out"; fail "--add-to did not keep --components 1 --ground"; }
 
 horse=$data/meshes/horse-gallop
 if [ ! -d "$horse" ]; then echo "skip: $horse not found (real-data part)"; exit 0; fi

@@ -14,6 +14,7 @@
 #include "looping.h"
 
 #include <errno.h>
+#include <malloc.h>
 #include <time.h>
 
 static int graph_edge(const mdl_variations *v, int a, int b)
@@ -135,13 +136,17 @@ static void test_play(void)
     mdl_variations_opts o;
     mdl_variations_opts_default(&o);
     o.jump_prob = 0.5;
+    o.components = 0; /* auto, and --ground: kept in the file (the trailer's version 2) */
+    o.ground = 1;
+    o.te_factor = 0.2;
     ASSERT_OK(mdl_variations_attach(m, &o, 42, err), err);
     const char *path = "test_walk_vars.msm";
     ASSERT_OK(mdl_model_save(m, path, err), err);
     mdl_model *m2 = NULL;
     ASSERT_OK(mdl_model_load(path, &m2, err), err);
-    /* the trailer (68 bytes, last in the SKIN chunk before the 8-byte END chunk) is checked: a
-     * flag other than 1, or a jump_prob above 1, is refused with a message */
+    /* the trailer (84 bytes, last in the SKIN chunk before the 8-byte END chunk) is checked: a
+     * version other than 1 or 2, a jump_prob above 1 or a ground flag of 2 is refused with a
+     * message */
     FILE *fp = fopen(path, "rb");
     ASSERT(fp != NULL);
     fseek(fp, 0, SEEK_END);
@@ -151,14 +156,19 @@ static void test_play(void)
     ASSERT(fread(buf, 1, (size_t)len, fp) == (size_t)len);
     fclose(fp);
     remove(path);
-    size_t tr = (size_t)len - 8 - 68;
-    ASSERT_INT_EQ(buf[tr], 1);
+    size_t tr = (size_t)len - 8 - 84;
+    ASSERT_INT_EQ(buf[tr], 2);
     mdl_model *bad = NULL;
-    buf[tr] = 2;
+    buf[tr] = 3;
     ASSERT_INT_NE(mdl_model_parse(buf, (size_t)len, "flag", &bad, err), 0);
-    printf("trailer flag 2: %s\n", err);
+    printf("trailer version 3: %s\n", err);
     ASSERT(strstr(err, "variations flag") != NULL);
-    buf[tr] = 1;
+    buf[tr] = 2;
+    buf[tr + 80] = 2; /* ground */
+    ASSERT_INT_NE(mdl_model_parse(buf, (size_t)len, "ground", &bad, err), 0);
+    printf("ground 2: %s\n", err);
+    ASSERT(strstr(err, "variations ground") != NULL);
+    buf[tr + 80] = 1;
     double big = 2;
     memcpy(buf + tr + 4 + 3 * 8 + 2 * 4, &big, sizeof big); /* jump_prob */
     ASSERT_INT_NE(mdl_model_parse(buf, (size_t)len, "jump", &bad, err), 0);
@@ -172,6 +182,9 @@ static void test_play(void)
     ASSERT(seed == 42);
     ASSERT_NEAR(o2.jump_prob, 0.5, 0);
     ASSERT_INT_EQ(o2.blend, o.blend);
+    ASSERT_INT_EQ(o2.components, 0);
+    ASSERT_INT_EQ(o2.ground, 1);
+    ASSERT_NEAR(o2.te_factor, 0.2, 0);
 
     const int F = 200;
     mdl_variations *v = NULL;
@@ -188,6 +201,18 @@ static void test_play(void)
     ASSERT_INT_GT(taken, 3);
     mdl_synth *sy = NULL;
     ASSERT_OK(mdl_synth_create(m2, MDL_KIND_SKIN, &sy, err), err);
+    /* the walk's per-frame path allocates nothing (meaningful without ASan, whose allocator
+     * mallinfo2 does not see), whatever the number of components */
+    mdl_variations_stats vst;
+    mdl_variations_get_stats(v, &vst);
+    struct mallinfo2 before = mallinfo2();
+    for (int f = 0; f < 2 * F; f++) {
+        mdl_synth_input in = {.t = (f + 1e-9) / info.fps};
+        ASSERT_INT_EQ(mdl_synth_frame(sy, &in, V, NULL), 0);
+    }
+    struct mallinfo2 after = mallinfo2();
+    ASSERT_INT_EQ(after.uordblks, before.uordblks);
+    printf("play: %d frames of a %d-component walk allocated nothing\n", 2 * F, vst.components);
     double worst = 0;
     for (int pass = 0; pass < 2; pass++) /* the second pass: the clock went back */
         for (int f = 0; f < F; f += pass ? 7 : 1) {
@@ -281,6 +306,36 @@ static void test_horse(void)
            "%d transitions taken, worst jump %.2f x the skin's\n", ej, gj, taken, worst);
     ASSERT_INT_GT(taken, 0);
     ASSERT_LE(worst, 3.0);
+    /* the idle source on the horse with its components (the tail walks apart): kept by attach,
+     * played by the skin's clock synthesis without allocating per frame */
+    mdl_variations_opts oc;
+    mdl_variations_opts_default(&oc);
+    oc.components = 0;
+    ASSERT_OK(mdl_variations_attach(m, &oc, 3, err), err);
+    mdl_synth *sy = NULL;
+    ASSERT_OK(mdl_synth_create(m, MDL_KIND_SKIN, &sy, err), err);
+    mdl_model_info hinfo;
+    mdl_model_get_info(m, &hinfo);
+    float *HV = calloc(3 * (size_t)hinfo.nv, sizeof *HV);
+    ASSERT(HV);
+    mdl_synth_input in0 = {.t = 0};
+    ASSERT_INT_EQ(mdl_synth_frame(sy, &in0, HV, NULL), 0);
+    struct mallinfo2 before = mallinfo2();
+    for (int f = 1; f < 400; f++) {
+        mdl_synth_input in = {.t = (f + 1e-9) / (hinfo.fps > 0 ? hinfo.fps : 30)};
+        ASSERT_INT_EQ(mdl_synth_frame(sy, &in, HV, NULL), 0);
+    }
+    struct mallinfo2 after = mallinfo2();
+    ASSERT_INT_EQ(after.uordblks, before.uordblks);
+    mdl_variations *vc = NULL;
+    ASSERT_OK(mdl_variations_build(m, &oc, &vc, err), err);
+    mdl_variations_stats stc;
+    mdl_variations_get_stats(vc, &stc);
+    printf("horse idle walk: %d components, 400 frames allocated nothing\n", stc.components);
+    ASSERT_INT_GT(stc.components, 1);
+    mdl_variations_destroy(vc);
+    mdl_synth_destroy(sy);
+    free(HV);
     mdl_variations_destroy(v);
     free(E);
     free(idx);
