@@ -32,24 +32,37 @@
 #define VAR_TAKE 90
 #define VAR_FRAMES 60
 
-/* OUT/variations.glb and OUT/variations.bin (the header). */
-static int variations(const char *dir, char *err)
+/* A skin of NBONES bones, NINFL influences fitted to every frame of an n-frame take of the
+ * built-in example creature (*seq keeps the take). 0, or -1 with the reason in err. */
+static int fit_example(int n, mdl_meshseq **seq, mdl_model **m, char *err)
 {
-    mdl_meshseq *seq = NULL;
-    if (mdl_example_create(VAR_TAKE, &seq, NULL, err))
+    *seq = NULL;
+    *m = NULL;
+    int *frames = malloc(sizeof *frames * (size_t)n);
+    if (!frames || mdl_example_create(n, seq, NULL, err)) {
+        free(frames);
         return -1;
-    int frames[VAR_TAKE];
-    for (int f = 0; f < VAR_TAKE; f++)
+    }
+    for (int f = 0; f < n; f++)
         frames[f] = f;
     mdl_skin_opts o;
     mdl_skin_opts_default(&o);
     o.bones = NBONES;
     o.max_influences = NINFL;
     o.name = "example";
+    int rc = mdl_skin_fit(*seq, frames, n, &o, m, err);
+    free(frames);
+    return rc ? -1 : 0;
+}
+
+/* OUT/variations.glb and OUT/variations.bin (the header). */
+static int variations(const char *dir, char *err)
+{
+    mdl_meshseq *seq = NULL;
     mdl_model *m = NULL;
     mdl_variations *v = NULL;
     mdl_gltf *g = NULL;
-    if (mdl_skin_fit(seq, frames, VAR_TAKE, &o, &m, err) || mdl_variations_build(m, NULL, &v, err) ||
+    if (fit_example(VAR_TAKE, &seq, &m, err) || mdl_variations_build(m, NULL, &v, err) ||
         mdl_gltf_begin(m, &g, err))
         return -1;
     mdl_model_info info;
@@ -123,21 +136,9 @@ int main(int argc, char **argv)
     }
     char err[MDL_ERR_LEN] = "", path[4096];
     mdl_meshseq *seq = NULL;
-    if (mdl_example_create(NFRAMES, &seq, NULL, err)) {
-        fprintf(stderr, "example: %s\n", err);
-        return 1;
-    }
-    int frames[NFRAMES];
-    for (int f = 0; f < NFRAMES; f++)
-        frames[f] = f;
-    mdl_skin_opts o;
-    mdl_skin_opts_default(&o);
-    o.bones = NBONES;
-    o.max_influences = NINFL;
-    o.name = "example";
     mdl_model *m = NULL;
-    if (mdl_skin_fit(seq, frames, NFRAMES, &o, &m, err)) {
-        fprintf(stderr, "skin: %s\n", err);
+    if (fit_example(NFRAMES, &seq, &m, err)) {
+        fprintf(stderr, "skin of the example: %s\n", err);
         return 1;
     }
     snprintf(path, sizeof path, "%s/skin.glb", argv[1]);
