@@ -406,6 +406,7 @@ typedef struct mdl_eval_opts {
     double noise_m;
     double drop;
     uint64_t seed;
+    int harmonic_stretch; /* the harmonic kind: drive with rotation and stretch (eval --stretch) */
 } mdl_eval_opts;
 
 typedef struct mdl_eval_result {
@@ -424,6 +425,9 @@ typedef struct mdl_eval_result {
     double *baseline_frame_err;
     const char *baseline_name; /* the baseline's JSON key stem, e.g. "baseline_nearest" (the
                                   harmonic kind), or NULL for the nearest-frame "baseline_nn" */
+    const char *mode;        /* the harmonic kind: "rotation" or "rotation+stretch"; else NULL */
+    double oracle_mean_err;  /* the harmonic kind: every triangle its measured rotation (and
+                                stretch), the same glue: the floor of the mode */
 } mdl_eval_result;
 
 /* The mesh must have the model's topology (MDL_ETOPOLOGY otherwise). Runs the primary kind's own

@@ -147,7 +147,7 @@ int cmd_demo(int argc, char **argv)
         cli_fail(cmd, status, "%s", err);
         goto out;
     }
-    mdl_eval_opts eo = {0, 0, 1};
+    mdl_eval_opts eo = {0, 0, 1, 0};
     if (mdl_eval_run(model, &both, ei, frames, &eo, &r, err)) {
         cli_fail(cmd, status, "%s", err);
         goto out;

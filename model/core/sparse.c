@@ -13,7 +13,7 @@ struct mdl_spd {
     int n, kmax;
     cholmod_common c;
     cholmod_factor *L;
-    cholmod_dense *X[4], *Y, *E; /* solve2 workspace, one X per column count 1..4 */
+    cholmod_dense *X[MDL_SPD_KMAX], *Y, *E; /* solve2 workspace, one X per column count 1..kmax */
     size_t anz;
 };
 
@@ -34,8 +34,9 @@ int mdl__spd_create(int n, size_t nnz, const int *ti, const int *tj, const doubl
                     mdl_spd **out, char *err)
 {
     *out = NULL;
-    if (n < 1 || kmax < 1 || kmax > 4)
-        return mdl__err(err, -EINVAL, "sparse: size %d, %d right-hand sides (1..4)", n, kmax);
+    if (n < 1 || kmax < 1 || kmax > MDL_SPD_KMAX)
+        return mdl__err(err, -EINVAL, "sparse: size %d, %d right-hand sides (1..%d)", n, kmax,
+                        MDL_SPD_KMAX);
     for (size_t e = 0; e < nnz; e++)
         if (ti[e] < tj[e] || tj[e] < 0 || ti[e] >= n)
             return mdl__err(err, -EINVAL, "sparse: entry %zu (%d, %d) is not in the lower triangle "
@@ -123,7 +124,7 @@ void mdl__spd_destroy(mdl_spd *s)
 {
     if (!s)
         return;
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < MDL_SPD_KMAX; k++)
         cholmod_free_dense(&s->X[k], &s->c);
     cholmod_free_dense(&s->Y, &s->c);
     cholmod_free_dense(&s->E, &s->c);

@@ -18,9 +18,13 @@
 
 typedef struct mdl_spd mdl_spd;
 
+/* right-hand sides per solve at most: the harmonic field's 4 quaternion components, 10 with the
+ * six stretch components of eval --stretch (model/harmonic/harmonic_field.c) */
+#define MDL_SPD_KMAX 10
+
 /* Factorises the n x n symmetric matrix given by nnz triplets (i, j, x) of its lower triangle
  * (i >= j; duplicates are summed; entries with i < j are refused) for solves of up to `kmax`
- * right-hand sides at once. MDL_ENUMERIC when A is not positive definite (with the column). */
+ * (<= MDL_SPD_KMAX) right-hand sides at once. MDL_ENUMERIC when A is not positive definite (with the column). */
 int mdl__spd_create(int n, size_t nnz, const int *ti, const int *tj, const double *tx, int kmax,
                     mdl_spd **out, char *err);
 void mdl__spd_destroy(mdl_spd *s);

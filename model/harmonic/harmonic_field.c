@@ -7,7 +7,10 @@
  *     L_ff S_f = -L_fc S_c,
  * factorised once per correspondence set (L_ff is SPD when every connected part of the mesh holds a
  * constrained vertex) and solved per frame for all four components in one 4-column solve. Each
- * vertex's interpolated quaternion is normalised afterwards. */
+ * vertex's interpolated quaternion is normalised afterwards.
+ * Beyond the paper (eval --stretch, docs/MODEL.md): six more scalar fields, the components of a
+ * symmetric stretch, ride along as columns 5-10 of the same solve (the factor is the same; only the
+ * right-hand side is wider); they are not normalised. */
 #include "harmonic/harmonic_internal.h"
 #include "core/laplacian.h"
 #include "core/util.h"
@@ -38,11 +41,15 @@ void mdl__hfield_fini(mdl__hfield *h)
 }
 
 int mdl__hfield_precompute(mdl__hfield *h, const uint32_t *F, int nf, int nv, const double *w,
-                           const int *cv, int ncv, char *err)
+                           const int *cv, int ncv, int ncomp, char *err)
 {
     memset(h, 0, sizeof *h);
+    if (ncomp != 4 && ncomp != MDL_HFIELD_NCOMP_STRETCH)
+        return mdl__err(err, -EINVAL, "harmonic field: %d components (4 or %d)", ncomp,
+                        MDL_HFIELD_NCOMP_STRETCH);
     h->nv = nv;
     h->ncv = ncv;
+    h->ncomp = ncomp;
     size_t cap = 3 * (size_t)nf + (size_t)nv;
     int *ti = mdl__calloc(cap, sizeof *ti), *tj = mdl__calloc(cap, sizeof *tj);
     double *tx = mdl__calloc(cap, sizeof *tx);
@@ -102,7 +109,7 @@ int mdl__hfield_precompute(mdl__hfield *h, const uint32_t *F, int nf, int nv, co
     h->coup_r = mdl__calloc(ncoup + 1, sizeof *h->coup_r);
     h->coup_c = mdl__calloc(ncoup + 1, sizeof *h->coup_c);
     h->coup_w = mdl__calloc(ncoup + 1, sizeof *h->coup_w);
-    h->B = mdl__calloc(4 * (size_t)(nfree ? nfree : 1), sizeof *h->B);
+    h->B = mdl__calloc((size_t)ncomp * (size_t)(nfree ? nfree : 1), sizeof *h->B);
     if (!h->coup_r || !h->coup_c || !h->coup_w || !h->B) {
         rc = mdl__err(err, -ENOMEM, "harmonic field: out of memory");
         goto out;
@@ -121,7 +128,7 @@ int mdl__hfield_precompute(mdl__hfield *h, const uint32_t *F, int nf, int nv, co
         }
     }
     if (nfree > 0) {
-        rc = mdl__spd_create(nfree, k, ti, tj, tx, 4, &h->spd, err);
+        rc = mdl__spd_create(nfree, k, ti, tj, tx, ncomp, &h->spd, err);
         if (rc == MDL_ENUMERIC) {
             char tmp[MDL_ERR_LEN];
             snprintf(tmp, sizeof tmp, "%s", err ? err : "");
@@ -138,34 +145,39 @@ out:
     return rc;
 }
 
-int mdl__hfield_solve(mdl__hfield *h, const double *Sc, double *S)
+int mdl__hfield_solve_n(mdl__hfield *h, const double *Sc, double *S, int ncomp)
 {
+    if (ncomp != 4 && ncomp != h->ncomp)
+        return -EINVAL;
     int nf = h->nfree;
     if (nf > 0) {
-        memset(h->B, 0, 4 * (size_t)nf * sizeof *h->B);
+        memset(h->B, 0, (size_t)ncomp * (size_t)nf * sizeof *h->B);
         for (int e = 0; e < h->ncoup; e++) {
-            const double *s = Sc + 4 * h->coup_c[e];
+            const double *s = Sc + (size_t)ncomp * h->coup_c[e];
             double wgt = h->coup_w[e];
             double *b = h->B + h->coup_r[e];
-            b[0] += wgt * s[0];
-            b[(size_t)nf] += wgt * s[1];
-            b[2 * (size_t)nf] += wgt * s[2];
-            b[3 * (size_t)nf] += wgt * s[3];
+            for (int c = 0; c < ncomp; c++)
+                b[(size_t)c * nf] += wgt * s[c];
         }
-        int rc = mdl__spd_solve(h->spd, h->B, h->B, 4);
+        int rc = mdl__spd_solve(h->spd, h->B, h->B, ncomp);
         if (rc)
             return rc;
     }
     for (int v = 0; v < h->nv; v++) {
         int r = h->row[v];
-        double *q = S + 4 * (size_t)v;
+        double *q = S + (size_t)ncomp * v;
         if (r >= 0) {
-            for (int c = 0; c < 4; c++)
+            for (int c = 0; c < ncomp; c++)
                 q[c] = h->B[(size_t)c * nf + r];
         } else {
-            memcpy(q, Sc + 4 * (size_t)(-r - 1), 4 * sizeof *q);
+            memcpy(q, Sc + (size_t)ncomp * (size_t)(-r - 1), (size_t)ncomp * sizeof *q);
         }
         mdl__qnorm(q);
     }
     return 0;
+}
+
+int mdl__hfield_solve(mdl__hfield *h, const double *Sc, double *S)
+{
+    return mdl__hfield_solve_n(h, Sc, S, 4);
 }

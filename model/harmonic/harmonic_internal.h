@@ -28,6 +28,7 @@
 
 typedef struct mdl__hfield {
     int nv, nfree, ncv;
+    int ncomp;    /* columns the factor is prepared for: 4, or 10 with the stretch (eval --stretch) */
     int *row;     /* nv: free row r >= 0, or -(c + 1) for constrained vertex c */
     int *cv;      /* ncv constrained vertices */
     /* coupling of free rows to constrained vertices: rhs[r] += cw * S[c] (cw = -L_rc) */
@@ -35,17 +36,24 @@ typedef struct mdl__hfield {
     int *coup_r, *coup_c;
     double *coup_w;
     mdl_spd *spd; /* L_ff, the Laplacian restricted to free vertices */
-    double *B;    /* nfree x 4 column-major, right-hand sides then solutions */
+    double *B;    /* nfree x ncomp column-major, right-hand sides then solutions */
 } mdl__hfield;
 
-/* w: cotangent weights (laplacian.h). cv: the constrained vertices (distinct). MDL_ENUMERIC when
- * a connected part of the mesh has no constrained vertex (the field is undetermined there). */
+/* The quaternion (4) and a symmetric 3 x 3 stretch's six components (xx xy xz yy yz zz). */
+#define MDL_HFIELD_NCOMP_STRETCH 10
+
+/* w: cotangent weights (laplacian.h). cv: the constrained vertices (distinct). ncomp: 4 (the
+ * paper), or MDL_HFIELD_NCOMP_STRETCH to also carry the stretch. MDL_ENUMERIC when a connected part
+ * of the mesh has no constrained vertex (the field is undetermined there). */
 int mdl__hfield_precompute(mdl__hfield *h, const uint32_t *F, int nf, int nv, const double *w,
-                           const int *cv, int ncv, char *err);
+                           const int *cv, int ncv, int ncomp, char *err);
 void mdl__hfield_fini(mdl__hfield *h);
 /* Sc: ncv x 4 (interleaved) values at the constrained vertices; S: nv x 4 interleaved output, each
  * vertex's quaternion normalised (Sec. 4.1: "fields normalised after"). Allocates nothing. */
 int mdl__hfield_solve(mdl__hfield *h, const double *Sc, double *S);
+/* The same with ncomp (4 or h->ncomp) values per vertex, interleaved; the first four (the
+ * quaternion) normalised, the rest (the stretch) as solved. Allocates nothing. */
+int mdl__hfield_solve_n(mdl__hfield *h, const double *Sc, double *S, int ncomp);
 
 /* ------------------------------------------------------------------ eq. 3-4 (poisson.c) */
 
@@ -106,17 +114,25 @@ typedef struct mdl__hdeform {
     double *qg;      /* ngroups x 4, aligned */
     double *qprev;   /* ngroups x 4, last frame's aligned (candy.c) */
     int have_prev;
-    double *Sc, *S;  /* ncv x 4, nv x 4 */
-    double *Rt;      /* nf x 9 */
+    int ncomp;       /* 4, or MDL_HFIELD_NCOMP_STRETCH when made with the stretch */
+    double *Sc, *S;  /* ncv x ncomp, nv x ncomp */
+    double *Rt;      /* nf x 9: R_t, or R_t U_t with the stretch */
     double *X;       /* nv x 3 */
     int near_180;    /* groups whose relative rotation to their parent was ambiguous, last frame */
 } mdl__hdeform;
 
 int mdl__hdeform_init(mdl__hdeform *d, const struct mdl_harmonic *h, const float *rest,
                       const uint32_t *F, char *err);
+/* The same; stretch != 0 also prepares the stretch fields (mdl__hdeform_run_stretch). */
+int mdl__hdeform_init_mode(mdl__hdeform *d, const struct mdl_harmonic *h, const float *rest,
+                           const uint32_t *F, int stretch, char *err);
 void mdl__hdeform_fini(mdl__hdeform *d);
 /* Per frame: group rotations qg_in (ngroups x 4, any sign) -> X (d->X, nv x 3). Allocates nothing. */
 int mdl__hdeform_run(mdl__hdeform *d, const double *qg_in);
+/* Per frame, beyond the paper: group rotations and group stretches ug_in (ngroups x 6, symmetric
+ * U in rest coordinates, xx xy xz yy yz zz; F = R U) -> X. -EINVAL unless made with stretch.
+ * Allocates nothing. */
+int mdl__hdeform_run_stretch(mdl__hdeform *d, const double *qg_in, const double *ug_in);
 /* Per-triangle rotations from the field (steps 2-3 of Sec. 4.1) without the Poisson glue. */
 int mdl__hdeform_tri_rotations(mdl__hdeform *d, const double *qg_in);
 void mdl__hdeform_reset(mdl__hdeform *d);
@@ -163,6 +179,19 @@ int mdl__corr_nearest(const struct mdl_harmonic *h, const float *rest, const uin
 
 /* ------------------------------------------------------------------ small quaternion helpers */
 
+/* a symmetric 3 x 3 (row-major) from its six components xx xy xz yy yz zz, and back */
+static inline void mdl__sym_from6(const double u[6], double U[9])
+{
+    U[0] = u[0], U[1] = u[1], U[2] = u[2];
+    U[3] = u[1], U[4] = u[3], U[5] = u[4];
+    U[6] = u[2], U[7] = u[4], U[8] = u[5];
+}
+static inline void mdl__sym_to6(const double U[9], double u[6])
+{
+    u[0] = U[0], u[1] = 0.5 * (U[1] + U[3]), u[2] = 0.5 * (U[2] + U[6]);
+    u[3] = U[4], u[4] = 0.5 * (U[5] + U[7]), u[5] = U[8];
+}
+
 static inline void mdl__qnorm(double *q)
 {
     double n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
@@ -181,6 +210,10 @@ int mdl__harmonic_eval(const mdl_model *m, const mdl_meshseq *seq, const int *fr
 /* The rotation of a triangle from rest (A) to deformed (B) vertices: the orthogonal polar factor of
  * its deformation gradient [Sumner & Popovic 2004, Sec. 3: the fourth vertex along the normal]. */
 void mdl__tri_rotation(const float *A, const float *B, const uint32_t *f, double q[4]);
+/* The same triangle's whole deformation gradient split F = R U (Fg: the 3 x 3 F, row-major,
+ * mapping the rest edges and scaled normal onto the deformed ones; q: R; u: U's six components). */
+void mdl__tri_gradient(const float *A, const float *B, const uint32_t *f, double Fg[9], double q[4],
+                       double u[6]);
 
 /* harmonic_synth.c: the kind's synthesis (markers -> bone rotations -> deformer) */
 int mdl__harmonic_synth_create(const mdl_model *m, const void *impl, void **state, char *err);

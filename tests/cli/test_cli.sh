@@ -49,6 +49,24 @@ grep -q "cut.msm" "$dir/err" || fail "the error does not name the truncated mode
 if [ -d "$data/meshes/horse-gallop" ]; then
     expect_status 2 "$ms" eval --model "$dir/ex.msm" --mesh "$data/meshes/horse-gallop" --frames 1 --json
     grep -q "topology" "$dir/err" || fail "a foreign mesh was not refused for its topology"
+    # a harmonic model measured on its own sequence: eval says which mode ran and its oracle floor;
+    # with --stretch the oracle (every triangle its own gradient, the same glue) rebuilds the frames
+    # and the model's error falls below the rotation-only run's (docs/MODEL.md)
+    expect_status 0 "$ms" train --kind harmonic --mesh "$data/meshes/horse-gallop" \
+        --correspondences auto:50 -o "$dir/h50.msm"
+    expect_status 0 "$ms" eval --model "$dir/h50.msm" --mesh "$data/meshes/horse-gallop" --frames 0:48:8 --json
+    cp "$dir/out" "$dir/hrot.json"
+    grep -q '"harmonic_mode":[[:space:]]*"rotation"' "$dir/hrot.json" || fail "eval: no rotation mode"
+    expect_status 0 "$ms" eval --model "$dir/h50.msm" --mesh "$data/meshes/horse-gallop" --frames 0:48:8 \
+        --stretch --json
+    cp "$dir/out" "$dir/hstr.json"
+    grep -q '"harmonic_mode":[[:space:]]*"rotation+stretch"' "$dir/hstr.json" || fail "eval --stretch: mode"
+    le "$(json_num "$dir/hstr.json" oracle_mean_err)" 1e-6 || fail "eval --stretch: the oracle is not exact"
+    le 0.001 "$(json_num "$dir/hrot.json" oracle_mean_err)" || fail "eval: the rotation oracle is exact?"
+    le "$(json_num "$dir/hstr.json" mean_err)" "$(json_num "$dir/hrot.json" mean_err)" ||
+        fail "eval --stretch: no lower than rotation-only"
+    expect_status 0 "$ms" eval --model "$dir/ex.msm" --mesh "$dir/ex/mesh" --frames 1:40:8 --json
+    ! grep -q harmonic_mode "$dir/out" || fail "a steering model's eval names a harmonic mode"
     # the paper's real use: a human recording steers the horse
     expect_status 0 "$ms" train --mesh "$data/meshes/horse-gallop" --rig "$src/rigs/horse-human.json" \
         --markers "$data/mocap/bvh/cmu/131_01.bvh" -o "$dir/puppet.msm"

@@ -9,6 +9,9 @@
  * memory-traffic floor: per frame both factors are read twice (forward and backward sweep; one pass
  * serves all 4 (field) or 3 (Poisson) columns), 12 bytes per nonzero (a double and an int index),
  * divided by this machine's read bandwidth (a sum over a 256 MB buffer, best of 3).
+ * Then the deformer alone (mdl__hdeform_run) against the same with the stretch (eval --stretch:
+ * six more field columns and R U per triangle, mdl__hdeform_run_stretch), same varied group
+ * rotations, U near I: CPU median and p99 of each.
  * argv[1]: frames per mesh (default 300). Targets (issue 9): >= 100 frames/s at ~55K, >= 20 at
  * ~220K, set-up <= 2 s at ~220K; reported, not asserted (the machines are shared). */
 #include "harmonic/harmonic_internal.h"
@@ -139,6 +142,32 @@ static void bench_mesh(const char *label, const mdl_mesh *target, const mdl_rig 
     ASSERT_OK(mdl__hdeform_init(&d, h, info.rest, info.F, err), err);
     double tinit = now_s() - t0, tinitc = cpu_s() - c0;
     size_t lf = mdl__spd_factor_nnz(d.field.spd), lp = mdl__spd_factor_nnz(d.pois.spd);
+    /* the deformer alone, rotation-only and with the stretch */
+    mdl__hdeform ds;
+    ASSERT_OK(mdl__hdeform_init_mode(&ds, h, info.rest, info.F, 1, err), err);
+    double *qg = calloc(4 * (size_t)h->ngroups, sizeof *qg), *ug = calloc(6 * (size_t)h->ngroups, sizeof *ug);
+    double *tr = calloc((size_t)frames, sizeof *tr), *ts = calloc((size_t)frames, sizeof *ts);
+    ASSERT(qg && ug && tr && ts);
+    for (int f = 0; f < frames; f++) {
+        for (int g = 0; g < h->ngroups; g++) {
+            double a = 0.3 * sin(0.05 * f + g);
+            qg[4 * g] = cos(a), qg[4 * g + 1] = sin(a), qg[4 * g + 2] = qg[4 * g + 3] = 0;
+            double u[6] = {1 + 0.05 * sin(0.1 * f + g), 0.01, 0, 1, 0, 1};
+            memcpy(ug + 6 * g, u, sizeof u);
+        }
+        double ac = cpu_s();
+        ASSERT_OK(mdl__hdeform_run(&d, qg), label);
+        tr[f] = 1e6 * (cpu_s() - ac);
+        ac = cpu_s();
+        ASSERT_OK(mdl__hdeform_run_stretch(&ds, qg, ug), label);
+        ts[f] = 1e6 * (cpu_s() - ac);
+    }
+    double rmed, rp99, smed, sp99;
+    pct(tr, frames, &rmed, &rp99);
+    pct(ts, frames, &smed, &sp99);
+    size_t lfs = mdl__spd_factor_nnz(ds.field.spd);
+    free(qg), free(ug), free(tr), free(ts);
+    mdl__hdeform_fini(&ds);
     mdl__hdeform_fini(&d);
     mdl_synth *s = NULL;
     ASSERT_OK(mdl_synth_create(m, 0, &s, err), err);
@@ -167,6 +196,8 @@ static void bench_mesh(const char *label, const mdl_mesh *target, const mdl_rig 
            "%.0f us (%.0f%% of the CPU median)\n",
            label, nv, info.nf, tbuild, tbuildc, tinit, tinitc, med, p99, 1e6 / med, cmed, cp99, 1e6 / cmed, lf,
            lp, bytes / 1e6, floor_us, 100 * floor_us / cmed);
+    printf("  deformer alone, CPU median / p99: rotation %.0f / %.0f us, rotation+stretch %.0f / %.0f "
+           "us (field factor nnz %zu, the same)\n", rmed, rp99, smed, sp99, lfs);
     free(map), free(in), free(V), free(t), free(tc);
     mdl_synth_destroy(s);
     mdl_model_destroy(m);

@@ -22,7 +22,7 @@ int main(void)
     }
     char err[MDL_ERR_LEN] = "";
     mdl__hfield h;
-    ASSERT_OK(mdl__hfield_precompute(&h, m->F, m->nf, m->nv, w, cv, ncv, err), err);
+    ASSERT_OK(mdl__hfield_precompute(&h, m->F, m->nf, m->nv, w, cv, ncv, 4, err), err);
     ASSERT_INT_EQ(h.nfree, m->nv - ncv);
     ASSERT_OK(mdl__hfield_solve(&h, Sc, S), "solve");
     double prev_w = 2, prev_x = -1;
@@ -44,7 +44,7 @@ int main(void)
     mdl__hfield_fini(&h);
     /* a part without a constraint is refused */
     mdl__hfield h2;
-    ASSERT_INT_EQ(mdl__hfield_precompute(&h2, m->F, m->nf, m->nv, w, cv, 0, err), MDL_ENUMERIC);
+    ASSERT_INT_EQ(mdl__hfield_precompute(&h2, m->F, m->nf, m->nv, w, cv, 0, 4, err), MDL_ENUMERIC);
     free(w), free(cv), free(Sc), free(S);
     mdl_mesh_destroy(m);
     puts("harmonic_field: ok");

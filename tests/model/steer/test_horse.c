@@ -16,7 +16,7 @@ static mdl_eval_result eval(const mdl_model *m, const mdl_meshseq *s, const char
     char err[MDL_ERR_LEN] = "";
     int *idx, n;
     ASSERT_OK(mdl_parse_frames(spec, s->frames, &idx, &n, err), err);
-    mdl_eval_opts o = {noise, drop, 1};
+    mdl_eval_opts o = {noise, drop, 1, 0};
     mdl_eval_result r;
     ASSERT_OK(mdl_eval_run(m, s, idx, n, &o, &r, err), err);
     free(idx);
@@ -84,7 +84,7 @@ int main(void)
               err);
     ASSERT_INT_EQ(collapse->nv, horse->nv);
     int one = 1;
-    mdl_eval_opts eo = {0, 0, 1};
+    mdl_eval_opts eo = {0, 0, 1, 0};
     ASSERT_INT_EQ(mdl_eval_run(m, collapse, &one, 1, &eo, &r, err), MDL_ETOPOLOGY);
     printf("horse-collapse refused: %s\n", err);
     mdl_meshseq_destroy(collapse);

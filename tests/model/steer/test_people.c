@@ -22,7 +22,7 @@ static void run(const char *name, const char *pc2, const char *rest, const char 
     ASSERT_OK(mdl_parse_frames("1:120:2", s->frames, &te, &nte, err), err);
     mdl_model *m;
     ASSERT_OK(mdl_steer_train(s, tr, ntr, rig, NULL, NULL, &m, err), err);
-    mdl_eval_opts o = {0, 0, 1};
+    mdl_eval_opts o = {0, 0, 1, 0};
     mdl_eval_result r;
     ASSERT_OK(mdl_eval_run(m, s, te, nte, &o, &r, err), err);
     double ratio = r.mean_err / r.baseline_nn_mean_err;

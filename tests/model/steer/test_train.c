@@ -16,7 +16,7 @@ static mdl_eval_result eval(const mdl_model *m, const mdl_meshseq *s, const char
     char err[MDL_ERR_LEN] = "";
     int *idx, n;
     ASSERT_OK(mdl_parse_frames(spec, s->frames, &idx, &n, err), err);
-    mdl_eval_opts o = {noise, drop, 7};
+    mdl_eval_opts o = {noise, drop, 7, 0};
     mdl_eval_result r;
     ASSERT_OK(mdl_eval_run(m, s, idx, n, &o, &r, err), err);
     free(idx);
@@ -216,7 +216,7 @@ int main(void)
         s->F[0] = s->F[1];
         s->F[1] = t;
         mdl_eval_result rr;
-        mdl_eval_opts eo = {0, 0, 1};
+        mdl_eval_opts eo = {0, 0, 1, 0};
         int one = 1;
         ASSERT_INT_EQ(mdl_eval_run(m, s, &one, 1, &eo, &rr, err), MDL_ETOPOLOGY);
         ASSERT(strstr(err, "different faces") != NULL);
