@@ -80,6 +80,15 @@ typedef struct mdl_markers {
     float *P;       /* frames x count x 3, metres, Y up */
     uint8_t *valid; /* frames x count, 1 = sample present */
     char **names;   /* count NUL-terminated labels */
+    /* Skeleton sources only (BVH, ASF/AMC; NULL for every other source): the joint rotations.
+     * rot[(f count + i) 4 ..]: a unit quaternion (w, x, y, z) in the same Y-up frame as P, the
+     * world rotation relative to the skeleton's rest pose (every rotation channel zero, where it
+     * is the identity) that carries the segment from marker parent[i] to marker i: p_i(f) -
+     * p_parent(f) = R (p_i - p_parent)(rest). A BVH joint's or End Site's segment turns with its
+     * parent joint's frame, an ASF bone with its own; a root (parent -1) has its own frame's
+     * rotation. Valid where P is. */
+    float *rot;     /* frames x count x 4, or NULL */
+    int *parent;    /* count: the marker each segment hangs from, -1 for a root; NULL with rot */
 } mdl_markers;
 
 /* Source axis conventions: which file axis points up. MDL_UP_AUTO picks the format's default
@@ -319,8 +328,11 @@ typedef struct mdl_synth mdl_synth;
 typedef struct mdl_synth_input {
     const float *markers;     /* MDL_INPUT_MARKERS: nmarkers x 3 in model marker order (metres) */
     const uint8_t *valid;     /* nmarkers, 1 = present; NULL = all valid */
-    int njoints;              /* MDL_INPUT_JOINTS: joints in the kind's joint order */
-    const float *joint_rot;   /* njoints x 4 unit quaternions (w, x, y, z), world frame */
+    int njoints;              /* MDL_INPUT_JOINTS: joints in the kind's joint order; the harmonic
+                                 kind's are its markers' (model marker order, mdl_model_info):
+                                 joint i is the segment ending at marker i (mdl_markers.rot) */
+    const float *joint_rot;   /* njoints x 4 unit quaternions (w, x, y, z), world frame, as
+                                 mdl_markers.rot (relative to the skeleton's rest pose); NULL: none */
     const uint8_t *joint_valid; /* njoints; NULL = all valid */
     double t;                 /* MDL_INPUT_CLOCK: seconds since the synthesis started */
 } mdl_synth_input;
@@ -329,6 +341,10 @@ typedef struct mdl_synth_info {
     int markers_missing;  /* markers invalid in this frame */
     int markers_held;     /* of those, replaced by their last valid position */
     int reference_lost;   /* the reference edge was not available: the last body frame was kept */
+    int joints_used;      /* harmonic: bones driven by their joint's rotation (MDL_INPUT_JOINTS)
+                             this frame; the others took the direction path */
+    double joint_arc_max; /* harmonic: the largest turn (radians) that brought a joint-driven bone
+                             onto its markers' direction (0 for a one-segment bone; a chain's bend) */
 } mdl_synth_info;
 
 /* All memory for synthesis is allocated here; mdl_synth_frame allocates nothing. One mdl_synth per
