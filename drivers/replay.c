@@ -1,4 +1,5 @@
-/* replay.c - a marker source that plays back a marker file (C3D, TRC, BVH, CSV) in real time.
+/* replay.c - a marker source that plays back a marker file (C3D, TRC, BVH, ASF/AMC, CSV) in real
+ * time; a skeleton file's joint rotations (mdl_markers.rot) go with its frames (drv_frame.joint_rot).
  *
  * Pacing: frame n (counted since the last re-anchoring, across loops) is due at
  *     t_due(n) = t_anchor + (n - n_anchor) * 1e6 / (fps * speed)   [CLOCK_MONOTONIC, us]
@@ -179,6 +180,7 @@ static int replay_open(drv_source *s, const char *arg, char *err)
     s->fps = r->fps;
     s->controls = DRV_CTL_PAUSE | DRV_CTL_SEEK | DRV_CTL_SPEED | DRV_CTL_LOOP;
     s->frames = r->m->frames;
+    s->joints = r->m->rot != NULL;
     return 0;
 }
 
@@ -220,6 +222,10 @@ static int replay_read(drv_source *s, drv_frame *f, int timeout_ms, char *err)
     int c = r->m->count;
     memcpy(f->xyz, r->m->P + (size_t)r->idx * (size_t)c * 3, (size_t)c * 3 * sizeof(float));
     memcpy(f->valid, r->m->valid + (size_t)r->idx * (size_t)c, (size_t)c);
+    if (r->m->rot && f->joint_rot && f->joint_valid) {
+        memcpy(f->joint_rot, r->m->rot + (size_t)r->idx * (size_t)c * 4, (size_t)c * 4 * sizeof(float));
+        memcpy(f->joint_valid, f->valid, (size_t)c);
+    }
     f->seq = r->n;
     f->t_capture_us = now_us();
     r->n++;
