@@ -275,7 +275,10 @@ int mdl_steer_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
  * Driven by markers (MDL_INPUT_MARKERS): the template is a skeleton whose bones are pairs of
  * markers (BVH / ASF/AMC joint positions, or any marker source); a bone's rotation is the rotation
  * of its rest direction onto its current one, its twist from a third marker where the rig names one
- * (docs/MODEL.md says what is lost without it). */
+ * (docs/MODEL.md says what is lost without it). Driven by joint rotations (MDL_INPUT_JOINTS; a
+ * model whose template_rest had mdl_markers.rot): a bone over a chain of the template's skeleton
+ * turns with the segment ending at its far marker, R_j(t) R_j(rest)^T composed with the rest fit,
+ * twist included; per bone, an invalid joint falls back to the markers. */
 typedef struct mdl_harmonic_opts {
     int auto_k;           /* > 0: K correspondences by farthest-point sampling, each its own group,
                              no template (a model measured on its own sequence: `auto:K`) */
@@ -352,7 +355,8 @@ typedef struct mdl_synth_info {
  * MDL_KIND_* picks that kind of the model (-ENOENT if it has none). */
 int mdl_synth_create(const mdl_model *m, int kind, mdl_synth **out, char *err);
 void mdl_synth_destroy(mdl_synth *s);
-/* The MDL_INPUT_* bits this synthesis reads. */
+/* The MDL_INPUT_* bits this synthesis reads (of this model: a harmonic model reads
+ * MDL_INPUT_JOINTS only when its template was a skeleton). */
 unsigned mdl_synth_inputs(const mdl_synth *s);
 /* V: nv x 3 output. info may be NULL. Returns 0, or -EAGAIN while the input does not yet allow a
  * frame (e.g. no reference was ever seen). */
