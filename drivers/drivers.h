@@ -136,14 +136,15 @@ const char *drv_control_name(unsigned ctl);
 const char *drv_state_name(drv_state st);
 
 /* ---- replay of marker files (replay.c) ----
- * Spec: "replay:FILE[?loop=0|1&speed=S&start=N&scale=M&up=x|y|z|-x|-y|-z]".
+ * Spec: "replay:FILE[?loop=0|1&speed=S&start=N&scale=M&up=x|y|z|-x|-y|-z&joints=0|1]".
  * FILE is anything mdl_markers_read reads (.c3d .trc .bvh .csv .amc .asf). Frames are released at the
  * file's fps divided by speed, paced on CLOCK_MONOTONIC; each frame's t_capture_us is the time it
  * was released. loop=1 wraps to frame 0 at the end (seq keeps counting); otherwise the source ends
  * (DRV_EEOF). start is the first frame; scale (metres per file unit) and up override the file's
  * conventions. Controls (all four bits): "pause" (1/0), "seek" (frame index), "speed"
  * (DRV_SPEED_MIN ... DRV_SPEED_MAX, as the option), "loop" (1/0). A frame that is more than 250 ms late re-anchors the clock rather than bursting.
- * A BVH or ASF/AMC file (.amc, .asf) also gives its joint rotations (drv_source.joints = 1). */
+ * A BVH or ASF/AMC file (.amc, .asf) also gives its joint rotations (drv_source.joints = 1)
+ * unless joints=0 (then its markers alone, as from any other file). */
 
 /* ---- markers and VMC bones over OSC (osc/osc.c; docs/OSC.md) ----
  * Spec: "osc:[HOST:]PORT[?markers=A,B,..&vmc=0|1&scale=M&stale=MS&gap=MS]". Binds a UDP socket

@@ -87,6 +87,13 @@ int main(void)
     drv_source_stop(s);
     drv_source_close(s);
     mdl_markers_destroy(m);
+    /* joints=0: the skeleton file's markers alone */
+    snprintf(spec, sizeof spec, "replay:%s?speed=100&joints=0", path);
+    ASSERT_OK(drv_source_open(spec, &s, err), err);
+    ASSERT_INT_EQ(s->joints, 0);
+    drv_source_close(s);
+    snprintf(spec, sizeof spec, "replay:%s?joints=2", path);
+    ASSERT(drv_source_open(spec, &s, err) != 0 && strstr(err, "joints"));
     unlink(path), unlink(csv), rmdir(dir);
     /* a real ASF/AMC take */
     const char *amc = getenv("MESHSTEER_DATA") ? test_data("mocap/asf_amc/hdm05/HDM_dg_06-03_03_120.amc")
