@@ -160,7 +160,7 @@ int mdl__corr_bones(struct mdl_harmonic *h, const float *rest, const uint32_t *F
                     int per_bone, const int *given_off, const int *given_idx, char *err);
 /* rest_fit.c: poses h->mk_rest (the aligned template rest) to the target's rest pose V: each bone
  * below the root turned onto the axis of the target's limb it lies in. kept: the bones that found no
- * limb and kept their direction. h->bone_fit (allocated, identity) gets each bone's C_g: the
+ * limb and kept their direction. h->bone_fit (when allocated) gets each bone's C_g: the
  * rotations the fit applied to its end, then the shortest arc that takes the result onto the bone's
  * fitted direction (the end's shift onto its section's centre). Allocates. */
 int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int nv, int nf,

@@ -380,7 +380,7 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
     /* each marker's accumulated turn (for bone_fit) and the unfitted rest pose */
     double *M = mdl__calloc(9 * (size_t)h->nmk + 9, sizeof *M);
     float *orig = mdl__calloc(3 * (size_t)h->nmk + 3, sizeof *orig);
-    if (!M || !orig || !h->bone_fit) {
+    if (!M || !orig) {
         rc = mdl__err(err, -ENOMEM, "rest fit: out of memory");
         goto out;
     }
@@ -543,7 +543,7 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
         }
     }
     /* C_g (bone_fit): the turns applied to the bone's end, then the arc onto its fitted direction */
-    for (int g = 0; g < nb; g++) {
+    for (int g = 0; g < nb && h->bone_fit; g++) {
         const float *a0 = orig + 3 * h->bone_a[g], *b0 = orig + 3 * h->bone_b[g];
         const float *a1 = h->mk_rest + 3 * h->bone_a[g], *b1 = h->mk_rest + 3 * h->bone_b[g];
         const double *Mb = M + 9 * h->bone_b[g];
