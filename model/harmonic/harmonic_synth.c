@@ -1,6 +1,13 @@
-/* harmonic_synth.c - driving the harmonic model from markers: the template of de Aguiar et al. 2007
- * Sec. 5 without 3ds Max.
+/* harmonic_synth.c - driving the harmonic model from markers and joint rotations: the template of
+ * de Aguiar et al. 2007 Sec. 5 without 3ds Max ("their bones become template triangles").
  *
+ * With joint rotations (MDL_INPUT_JOINTS, a BVH or ASF/AMC source; h->bone_j >= 0): the bone's
+ * rotation is A R_j(t) R_j(rest)^T A^T C_g^T (R_j the world rotation of the segment that drives the
+ * bone, A the template-to-target alignment - a scale and a translation, so A's rotation is the
+ * identity - and C_g the rest fit's turn of the bone), then the shortest arc from where that puts
+ * the fitted rest direction onto the markers' direction (none for a one-segment bone, a chain's bend
+ * otherwise): the full rotation, twist included. A bone whose joint is invalid takes the path below.
+ * Without them (or for such a bone):
  * The template is a skeleton of bones, each a pair of markers (a, b) - joint positions by forward
  * kinematics from BVH or ASF/AMC, or any tracked points - with an optional third marker c. Per frame:
  *   - markers are mapped into the target's space by the rest alignment (p' = s p + t);
