@@ -43,6 +43,12 @@ typedef struct drv_frame {
     int count;             /* markers in xyz/valid (= the source's marker count) */
     float *xyz;            /* count x 3, caller-provided */
     uint8_t *valid;        /* count, caller-provided */
+    /* The joints block, for a source whose drv_source.joints is set (a skeleton file): per marker
+     * the rotation of the segment ending at it (mdl_markers.rot: unit quaternion w x y z, Y up,
+     * relative to the skeleton's rest pose) and its validity. Caller-provided (count x 4, count)
+     * or NULL when the caller does not want them; other sources leave them alone. */
+    float *joint_rot;
+    uint8_t *joint_valid;
 } drv_frame;
 
 typedef struct drv_source drv_source;
@@ -85,6 +91,8 @@ struct drv_source {
     unsigned controls;    /* DRV_CTL_* bits this source takes (0: none), set by open */
     unsigned caps;        /* DRV_CAP_* bits, set by open */
     int frames;           /* frames of a recording (what "seek" ranges over), 0 for a live source */
+    int joints;           /* 1: frames carry joint rotations (drv_frame.joint_rot), set by open:
+                             replay of a BVH or ASF/AMC file; 0 for every other source */
 };
 
 /* spec: "scheme:argument", e.g. "replay:walk.c3d?loop=1&speed=0.5&start=10". */
@@ -128,13 +136,15 @@ const char *drv_control_name(unsigned ctl);
 const char *drv_state_name(drv_state st);
 
 /* ---- replay of marker files (replay.c) ----
- * Spec: "replay:FILE[?loop=0|1&speed=S&start=N&scale=M&up=x|y|z|-x|-y|-z]".
- * FILE is anything mdl_markers_read reads (.c3d .trc .bvh .csv). Frames are released at the
+ * Spec: "replay:FILE[?loop=0|1&speed=S&start=N&scale=M&up=x|y|z|-x|-y|-z&joints=0|1]".
+ * FILE is anything mdl_markers_read reads (.c3d .trc .bvh .csv .amc .asf). Frames are released at the
  * file's fps divided by speed, paced on CLOCK_MONOTONIC; each frame's t_capture_us is the time it
  * was released. loop=1 wraps to frame 0 at the end (seq keeps counting); otherwise the source ends
  * (DRV_EEOF). start is the first frame; scale (metres per file unit) and up override the file's
  * conventions. Controls (all four bits): "pause" (1/0), "seek" (frame index), "speed"
- * (DRV_SPEED_MIN ... DRV_SPEED_MAX, as the option), "loop" (1/0). A frame that is more than 250 ms late re-anchors the clock rather than bursting. */
+ * (DRV_SPEED_MIN ... DRV_SPEED_MAX, as the option), "loop" (1/0). A frame that is more than 250 ms late re-anchors the clock rather than bursting.
+ * A BVH or ASF/AMC file (.amc, .asf) also gives its joint rotations (drv_source.joints = 1)
+ * unless joints=0 (then its markers alone, as from any other file). */
 
 /* ---- markers and VMC bones over OSC (osc/osc.c; docs/OSC.md) ----
  * Spec: "osc:[HOST:]PORT[?markers=A,B,..&vmc=0|1&scale=M&stale=MS&gap=MS]". Binds a UDP socket

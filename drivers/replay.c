@@ -1,4 +1,5 @@
-/* replay.c - a marker source that plays back a marker file (C3D, TRC, BVH, CSV) in real time.
+/* replay.c - a marker source that plays back a marker file (C3D, TRC, BVH, ASF/AMC, CSV) in real
+ * time; a skeleton file's joint rotations (mdl_markers.rot) go with its frames (drv_frame.joint_rot).
  *
  * Pacing: frame n (counted since the last re-anchoring, across loops) is due at
  *     t_due(n) = t_anchor + (n - n_anchor) * 1e6 / (fps * speed)   [CLOCK_MONOTONIC, us]
@@ -112,7 +113,7 @@ static int replay_open(drv_source *s, const char *arg, char *err)
     if (q)
         *q++ = '\0';
 
-    double loop = 0, speed = 1, start = 0;
+    double loop = 0, speed = 1, start = 0, joints = 1;
     mdl_marker_opts o = {0, MDL_UP_AUTO, 0};
     for (char *save = NULL, *kv = q ? strtok_r(q, "&", &save) : NULL; kv;
          kv = strtok_r(NULL, "&", &save)) {
@@ -132,18 +133,23 @@ static int replay_open(drv_source *s, const char *arg, char *err)
         }
         else if (!strcmp(kv, "start"))
             r = parse_num(path, kv, eq, 0, 2e9, &start, err);
+        else if (!strcmp(kv, "joints"))
+            r = parse_num(path, kv, eq, 0, 1, &joints, err);
         else if (!strcmp(kv, "scale"))
             r = parse_num(path, kv, eq, 1e-9, 1e9, &o.scale, err);
         else if (!strcmp(kv, "up"))
             r = parse_up(path, eq, &o.up, err);
         else
             r = drv__err(err, -EINVAL,
-                       "replay %s: unknown option '%s' (known: loop, speed, start, scale, up)", path,
+                       "replay %s: unknown option '%s' (known: loop, speed, start, scale, up, "
+                       "joints)", path,
                        kv);
         if (r)
             return r;
         if (!strcmp(kv, "loop") && loop != 0 && loop != 1)
             return drv__err(err, -EINVAL, "replay %s: option loop must be 0 or 1", path);
+        if (!strcmp(kv, "joints") && joints != 0 && joints != 1)
+            return drv__err(err, -EINVAL, "replay %s: option joints must be 0 or 1", path);
     }
     if (start != floor(start))
         return drv__err(err, -EINVAL, "replay %s: option start must be a whole frame number", path);
@@ -179,6 +185,7 @@ static int replay_open(drv_source *s, const char *arg, char *err)
     s->fps = r->fps;
     s->controls = DRV_CTL_PAUSE | DRV_CTL_SEEK | DRV_CTL_SPEED | DRV_CTL_LOOP;
     s->frames = r->m->frames;
+    s->joints = r->m->rot != NULL && joints != 0;
     return 0;
 }
 
@@ -220,6 +227,10 @@ static int replay_read(drv_source *s, drv_frame *f, int timeout_ms, char *err)
     int c = r->m->count;
     memcpy(f->xyz, r->m->P + (size_t)r->idx * (size_t)c * 3, (size_t)c * 3 * sizeof(float));
     memcpy(f->valid, r->m->valid + (size_t)r->idx * (size_t)c, (size_t)c);
+    if (s->joints && f->joint_rot && f->joint_valid) {
+        memcpy(f->joint_rot, r->m->rot + (size_t)r->idx * (size_t)c * 4, (size_t)c * 4 * sizeof(float));
+        memcpy(f->joint_valid, f->valid, (size_t)c);
+    }
     f->seq = r->n;
     f->t_capture_us = now_us();
     r->n++;

@@ -191,7 +191,8 @@ void mdl_model_get_info(const mdl_model *m, mdl_model_info *info)
         info->kinds[i] = m->kinds[i].ops->id;
     if (m->nkinds) {
         info->kind = m->kinds[0].ops->id;
-        info->inputs = m->kinds[0].ops->inputs;
+        info->inputs = m->kinds[0].ops->inputs_of ? m->kinds[0].ops->inputs_of(m->kinds[0].impl)
+                                                  : m->kinds[0].ops->inputs;
     }
     info->nv = m->nv;
     info->nf = m->nf;
@@ -287,6 +288,7 @@ int mdl_synth_create(const mdl_model *m, int kind, mdl_synth **out, char *err)
     if (!s)
         return mdl__err(err, -ENOMEM, "synthesis: out of memory");
     s->ops = k->ops;
+    s->inputs = k->ops->inputs_of ? k->ops->inputs_of(k->impl) : k->ops->inputs;
     int rc = k->ops->synth_create(m, k->impl, &s->state, err);
     if (rc) {
         free(s);
@@ -306,7 +308,7 @@ void mdl_synth_destroy(mdl_synth *s)
 
 unsigned mdl_synth_inputs(const mdl_synth *s)
 {
-    return s->ops->inputs;
+    return s->inputs;
 }
 
 int mdl_synth_frame(mdl_synth *s, const mdl_synth_input *in, float *V, mdl_synth_info *info)

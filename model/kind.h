@@ -19,6 +19,9 @@ typedef struct mdl_kind_ops {
     const char *name;    /* mdl_kind_name */
     char tag[4];         /* its chunk in the model file (docs/FORMATS.md) */
     unsigned inputs;     /* MDL_INPUT_* bits its synthesis reads */
+    /* The bits this model's synthesis reads, when they depend on the model (a harmonic model
+     * whose template has no skeleton reads no joints); NULL: `inputs`. */
+    unsigned (*inputs_of)(const void *impl);
 
     void (*destroy)(void *impl);
     /* The chunk payload, and back. parse sees the model's mesh and rig (already read: the MESH and
@@ -75,6 +78,7 @@ struct mdl_model {
 struct mdl_synth {
     const mdl_kind_ops *ops;
     void *state;
+    unsigned inputs; /* ops->inputs, or inputs_of(impl) */
 };
 
 /* The registry: the table of a kind id or chunk tag, or NULL. */

@@ -80,6 +80,15 @@ typedef struct mdl_markers {
     float *P;       /* frames x count x 3, metres, Y up */
     uint8_t *valid; /* frames x count, 1 = sample present */
     char **names;   /* count NUL-terminated labels */
+    /* Skeleton sources only (BVH, ASF/AMC; NULL for every other source): the joint rotations.
+     * rot[(f count + i) 4 ..]: a unit quaternion (w, x, y, z) in the same Y-up frame as P, the
+     * world rotation relative to the skeleton's rest pose (every rotation channel zero, where it
+     * is the identity) that carries the segment from marker parent[i] to marker i: p_i(f) -
+     * p_parent(f) = R (p_i - p_parent)(rest). A BVH joint's or End Site's segment turns with its
+     * parent joint's frame, an ASF bone with its own; a root (parent -1) has its own frame's
+     * rotation. Valid where P is. */
+    float *rot;     /* frames x count x 4, or NULL */
+    int *parent;    /* count: the marker each segment hangs from, -1 for a root; NULL with rot */
 } mdl_markers;
 
 /* Source axis conventions: which file axis points up. MDL_UP_AUTO picks the format's default
@@ -266,7 +275,10 @@ int mdl_steer_train(const mdl_meshseq *seq, const int *frames, int nframes, cons
  * Driven by markers (MDL_INPUT_MARKERS): the template is a skeleton whose bones are pairs of
  * markers (BVH / ASF/AMC joint positions, or any marker source); a bone's rotation is the rotation
  * of its rest direction onto its current one, its twist from a third marker where the rig names one
- * (docs/MODEL.md says what is lost without it). */
+ * (docs/MODEL.md says what is lost without it). Driven by joint rotations (MDL_INPUT_JOINTS; a
+ * model whose template_rest had mdl_markers.rot): a bone over a chain of the template's skeleton
+ * turns with the segment ending at its far marker, R_j(t) R_j(rest)^T composed with the rest fit,
+ * twist included; per bone, an invalid joint falls back to the markers. */
 typedef struct mdl_harmonic_opts {
     int auto_k;           /* > 0: K correspondences by farthest-point sampling, each its own group,
                              no template (a model measured on its own sequence: `auto:K`) */
@@ -319,8 +331,11 @@ typedef struct mdl_synth mdl_synth;
 typedef struct mdl_synth_input {
     const float *markers;     /* MDL_INPUT_MARKERS: nmarkers x 3 in model marker order (metres) */
     const uint8_t *valid;     /* nmarkers, 1 = present; NULL = all valid */
-    int njoints;              /* MDL_INPUT_JOINTS: joints in the kind's joint order */
-    const float *joint_rot;   /* njoints x 4 unit quaternions (w, x, y, z), world frame */
+    int njoints;              /* MDL_INPUT_JOINTS: joints in the kind's joint order; the harmonic
+                                 kind's are its markers' (model marker order, mdl_model_info):
+                                 joint i is the segment ending at marker i (mdl_markers.rot) */
+    const float *joint_rot;   /* njoints x 4 unit quaternions (w, x, y, z), world frame, as
+                                 mdl_markers.rot (relative to the skeleton's rest pose); NULL: none */
     const uint8_t *joint_valid; /* njoints; NULL = all valid */
     double t;                 /* MDL_INPUT_CLOCK: seconds since the synthesis started */
 } mdl_synth_input;
@@ -329,6 +344,10 @@ typedef struct mdl_synth_info {
     int markers_missing;  /* markers invalid in this frame */
     int markers_held;     /* of those, replaced by their last valid position */
     int reference_lost;   /* the reference edge was not available: the last body frame was kept */
+    int joints_used;      /* harmonic: bones driven by their joint's rotation (MDL_INPUT_JOINTS)
+                             this frame; the others took the direction path */
+    double joint_arc_max; /* harmonic: the largest turn (radians) that brought a joint-driven bone
+                             onto its markers' direction (0 for a one-segment bone; a chain's bend) */
 } mdl_synth_info;
 
 /* All memory for synthesis is allocated here; mdl_synth_frame allocates nothing. One mdl_synth per
@@ -336,7 +355,8 @@ typedef struct mdl_synth_info {
  * MDL_KIND_* picks that kind of the model (-ENOENT if it has none). */
 int mdl_synth_create(const mdl_model *m, int kind, mdl_synth **out, char *err);
 void mdl_synth_destroy(mdl_synth *s);
-/* The MDL_INPUT_* bits this synthesis reads. */
+/* The MDL_INPUT_* bits this synthesis reads (of this model: a harmonic model reads
+ * MDL_INPUT_JOINTS only when its template was a skeleton). */
 unsigned mdl_synth_inputs(const mdl_synth *s);
 /* V: nv x 3 output. info may be NULL. Returns 0, or -EAGAIN while the input does not yet allow a
  * frame (e.g. no reference was ever seen). */

@@ -28,7 +28,12 @@ static const char usage_text[] =
     "                     the rig's 'source' label MODEL to the file's marker LABEL (one LABEL\n"
     "                     may feed several); labels not in the map match by their own name\n"
     "  --json             print statistics as JSON on stdout: timing, missing markers, output and\n"
-    "                     input speed per frame, jitter, bounding box, non-finite values\n" CLI_MARKER_OPTS_HELP;
+    "                     input speed per frame, jitter, bounding box, non-finite values, bones\n"
+    "                     driven by joint rotations\n"
+    "  --no-joints        a harmonic model driven by a BVH or ASF/AMC file: ignore the file's\n"
+    "                     joint rotations and take each bone's rotation from its markers'\n"
+    "                     directions, as for a marker-only source (the twist about a bone without\n"
+    "                     a twist marker is lost; docs/MODEL.md)\n" CLI_MARKER_OPTS_HELP;
 
 /* Motion statistics: mean per-frame displacement of the output vertices against that of the
  * input markers, and jitter = mean |speed(f) - speed(f-1)| / mean speed, for both. */
@@ -64,7 +69,7 @@ static double jitter(const double *sp, int n)
 
 static int print_stats(const float *out, int nv, const mdl_markers *mk, const int *idx, int n,
                        const int *map, int nmap, double med, double p99, long missing, long held,
-                       long lost)
+                       long lost, int joint_bones)
 {
     /* the input markers of the selected frames, contiguous */
     float *in = malloc(sizeof(float) * 3 * (size_t)n * nmap);
@@ -113,6 +118,7 @@ static int print_stats(const float *out, int nv, const mdl_markers *mk, const in
     cJSON_AddNumberToObject(o, "held_marker_samples", (double)held);
     cJSON_AddNumberToObject(o, "frames_without_reference", (double)lost);
     cJSON_AddNumberToObject(o, "nonfinite", (double)nonfinite);
+    cJSON_AddNumberToObject(o, "joint_bones", joint_bones);
     cJSON_AddNumberToObject(o, "output_speed_median", om);
     cJSON_AddNumberToObject(o, "output_speed_p99", op);
     cJSON_AddNumberToObject(o, "input_speed_median", im);
@@ -143,12 +149,13 @@ int cmd_synth(int argc, char **argv)
     const char *cmd = "synth", *modelp = NULL, *mk = NULL, *outp = NULL, *objdir = NULL,
                *frames = NULL;
     mdl_marker_opts mo = {0, MDL_UP_AUTO, 0};
-    enum { O_MODEL = 256, O_MARKERS, O_OBJDIR, O_FRAMES, O_MSCALE, O_MUP, O_JSON, O_LABELS };
-    int json = 0;
+    enum { O_MODEL = 256, O_MARKERS, O_OBJDIR, O_FRAMES, O_MSCALE, O_MUP, O_JSON, O_LABELS, O_NOJ };
+    int json = 0, nojoints = 0;
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},   {"markers", 1, 0, O_MARKERS},     {"output", 1, 0, 'o'},
         {"obj-dir", 1, 0, O_OBJDIR}, {"frames", 1, 0, O_FRAMES},      {"marker-scale", 1, 0, O_MSCALE},
         {"marker-up", 1, 0, O_MUP}, {"json", 0, 0, O_JSON}, {"labels", 1, 0, O_LABELS},
+        {"no-joints", 0, 0, O_NOJ},
         {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     const char *labels = NULL;
     int c;
@@ -162,6 +169,7 @@ int cmd_synth(int argc, char **argv)
         case O_FRAMES: frames = optarg; break;
         case O_JSON: json = 1; break;
         case O_LABELS: labels = optarg; break;
+        case O_NOJ: nojoints = 1; break;
         case O_MSCALE:
         case O_MUP:
             if (cli_marker_option(cmd, c == O_MSCALE ? "marker-scale" : "marker-up", optarg, &mo))
@@ -184,8 +192,8 @@ int cmd_synth(int argc, char **argv)
     mdl_model *model = NULL;
     mdl_markers *markers = NULL;
     mdl_synth *s = NULL;
-    float *out = NULL, *P = NULL;
-    uint8_t *valid = NULL;
+    float *out = NULL, *P = NULL, *J = NULL;
+    uint8_t *valid = NULL, *jvalid = NULL;
     double *times = NULL;
     if (mdl_model_load(modelp, &model, err) || mdl_markers_read(mk, &mo, &markers, err)) {
         cli_fail(cmd, status, "%s", err);
@@ -202,7 +210,9 @@ int cmd_synth(int argc, char **argv)
     valid = calloc((size_t)info.nmarkers, 1);
     out = calloc((size_t)n * info.nv * 3, sizeof *out);
     times = calloc((size_t)n, sizeof *times);
-    if (!map || !P || !valid || !out || !times) {
+    J = calloc((size_t)info.nmarkers * 4 + 4, sizeof *J);
+    jvalid = calloc((size_t)info.nmarkers + 1, 1);
+    if (!map || !P || !valid || !out || !times || !J || !jvalid) {
         status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
         goto out;
     }
@@ -232,7 +242,10 @@ int cmd_synth(int argc, char **argv)
         goto out;
     }
     long missing = 0, held = 0, lost = 0;
-    int first = -1;
+    int first = -1, joint_bones = 0;
+    /* a skeleton file's joint rotations (model marker i: the segment ending at it), for a kind
+     * that reads them */
+    int joints = !nojoints && markers->rot && (mdl_synth_inputs(s) & MDL_INPUT_JOINTS);
     for (int i = 0; i < n; i++) {
         int f = idx[i];
         for (int j = 0; j < info.nmarkers; j++) {
@@ -244,11 +257,18 @@ int cmd_synth(int argc, char **argv)
             size_t k = (size_t)f * markers->count + map[j];
             memcpy(P + 3 * j, markers->P + 3 * k, 3 * sizeof(float));
             valid[j] = markers->valid[k];
+            if (joints)
+                memcpy(J + 4 * j, markers->rot + 4 * k, 4 * sizeof(float));
         }
+        for (int j = 0; j < info.nmarkers; j++)
+            jvalid[j] = valid[j];
+        mdl_synth_input in = {.markers = P, .valid = valid};
+        if (joints)
+            in.njoints = info.nmarkers, in.joint_rot = J, in.joint_valid = jvalid;
         mdl_synth_info si;
         struct timespec t0, t1;
         clock_gettime(CLOCK_MONOTONIC, &t0);
-        int r = mdl_synth_markers(s, P, valid, out + (size_t)i * info.nv * 3, &si);
+        int r = mdl_synth_frame(s, &in, out + (size_t)i * info.nv * 3, &si);
         clock_gettime(CLOCK_MONOTONIC, &t1);
         times[i] = 1e6 * (double)(t1.tv_sec - t0.tv_sec) + 1e-3 * (double)(t1.tv_nsec - t0.tv_nsec);
         if (r == -EAGAIN) { /* no reference edge yet: fill with the rest pose later */
@@ -260,6 +280,7 @@ int cmd_synth(int argc, char **argv)
         missing += si.markers_missing;
         held += si.markers_held;
         lost += si.reference_lost;
+        joint_bones = si.joints_used > joint_bones ? si.joints_used : joint_bones;
         cli_progress((void *)"synth", "frames", (double)(i + 1) / n);
     }
     cli_progress_done();
@@ -291,14 +312,15 @@ int cmd_synth(int argc, char **argv)
     double med, p99;
     cli_percentiles(times, n, &med, &p99);
     if (json && print_stats(out, info.nv, markers, idx, n, map, info.nmarkers, med, p99, missing,
-                            held, lost)) {
+                            held, lost, joint_bones)) {
         status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
         goto out;
     }
     fprintf(stderr,
             "meshsteer synth: %s: %d frames of %d vertices; %.1f us/frame median, %.1f p99; "
-            "%ld missing marker samples (%ld held), %ld frames without reference edge\n",
-            outp, n, info.nv, med, p99, missing, held, lost);
+            "%ld missing marker samples (%ld held), %ld frames without reference edge%s\n",
+            outp, n, info.nv, med, p99, missing, held, lost,
+            joint_bones ? "; bones driven by the file's joint rotations" : "");
     status = CLI_EXIT_OK;
 out:
     srv_labels_destroy(lmap);
@@ -309,6 +331,8 @@ out:
     free(map);
     free(P);
     free(valid);
+    free(J);
+    free(jvalid);
     free(out);
     free(times);
     return status;

@@ -22,6 +22,8 @@ typedef struct slot {
     uint64_t t_capture_us;
     float *xyz;
     uint8_t *valid;
+    float *jrot;       /* count x 4 when the source gives joint rotations, else NULL */
+    uint8_t *jvalid;   /* count, likewise */
 } slot;
 
 typedef struct ctl_entry {
@@ -106,6 +108,8 @@ void srv_bundle_fini(srv_bundle *b)
     mdl_model_destroy(b->model);
     srv_gen_unref(b->gen);
     free(b->map);
+    free(b->jr);
+    free(b->jv);
     free(b->V);
     free(b->V_idle);
     free(b->mk);
@@ -135,6 +139,7 @@ int srv_source_info_init(srv_source_info *si, const drv_source *src, const char 
     si->fps = src->fps;
     si->frames = src->frames;
     si->caps = src->caps;
+    si->joints = src->joints;
     si->controls = src->ops->control ? srv_controls_of_source(src->controls) : 0;
     si->names = calloc((size_t)src->count + 1, sizeof *si->names);
     for (int i = 0; si->names && i < src->count; i++)
@@ -258,7 +263,13 @@ int srv_pipeline_load(const char *model_path, const char *labels, const srv_sour
     const char **lookup = calloc(nm1, sizeof *lookup);
     uint8_t *bound = calloc(nm1, 1);
     srv_labels *lmap = NULL;
-    if (!out->map || !out->V || !out->mk || !out->mv || !lookup || !bound) {
+    out->joints = src->joints && (out->inputs & MDL_INPUT_JOINTS) && out->nm > 0;
+    if (out->joints) {
+        out->jr = calloc(nm1 * 4, sizeof(float));
+        out->jv = calloc(nm1, 1);
+    }
+    if (!out->map || !out->V || !out->mk || !out->mv || !lookup || !bound ||
+        (out->joints && (!out->jr || !out->jv))) {
         r = srv_err(err, -ENOMEM, "model %s: out of memory", model_path);
         goto fail;
     }
@@ -271,6 +282,13 @@ int srv_pipeline_load(const char *model_path, const char *labels, const srv_sour
         srv_log(SRV_LOG_WARN, "model %s: its %s model reads no markers; --labels is ignored",
                 model_path, mdl_kind_name(info.kind));
     }
+    if (out->joints)
+        srv_log(SRV_LOG_NOTICE, "model %s: its bones turn with the source's joint rotations "
+                "(twist included)", model_path);
+    else if (out->inputs & MDL_INPUT_JOINTS)
+        srv_log(SRV_LOG_NOTICE, "model %s: the source gives no joint rotations: its bones turn by "
+                "their markers' directions (the twist about a bone without a twist marker is lost)",
+                model_path);
     if ((r = create_idle(out, &info, model_path, err)))
         goto fail;
     if (out->idle && !(out->V_idle = calloc((size_t)info.nv * 3, sizeof(float)))) {
@@ -347,7 +365,12 @@ int srv_pipeline_create(drv_source *src, srv_source_info *si, srv_bundle *b, srv
     for (int k = 0; k < SLOT_COUNT; k++) {
         p->slots[k].xyz = calloc((size_t)src->count * 3, sizeof(float));
         p->slots[k].valid = calloc((size_t)src->count, 1);
-        if (!p->slots[k].xyz || !p->slots[k].valid) {
+        if (si->joints) {
+            p->slots[k].jrot = calloc((size_t)src->count * 4, sizeof(float));
+            p->slots[k].jvalid = calloc((size_t)src->count, 1);
+        }
+        if (!p->slots[k].xyz || !p->slots[k].valid ||
+            (si->joints && (!p->slots[k].jrot || !p->slots[k].jvalid))) {
             p->src = NULL; /* on failure the caller keeps the source and the bundle */
             srv_pipeline_destroy(p);
             return srv_err(err, -ENOMEM, "pipeline: out of memory");
@@ -452,14 +475,19 @@ static void *source_main(void *arg)
     drv_source *s = p->src;
     float *xyz = calloc((size_t)s->count * 3, sizeof(float));
     uint8_t *valid = calloc((size_t)s->count, 1);
+    /* the joints block, sized here once (a skeleton file's replay) */
+    int joints = p->si.joints;
+    float *jrot = joints ? calloc((size_t)s->count * 4, sizeof(float)) : NULL;
+    uint8_t *jvalid = joints ? calloc((size_t)s->count, 1) : NULL;
     char e[DRV_ERR_LEN];
     int last_state = -1;
     drv_osc_counts oc;
     int osc = drv_osc_counts_get(s, &oc) == 0; /* an osc: source: its counters go to /metrics */
     atomic_store(&p->m->osc.present, osc);
-    while (xyz && valid && !atomic_load(&p->stop)) {
+    while (xyz && valid && (!joints || (jrot && jvalid)) && !atomic_load(&p->stop)) {
         apply_controls(p);
-        drv_frame f = {.count = s->count, .xyz = xyz, .valid = valid};
+        drv_frame f = {.count = s->count, .xyz = xyz, .valid = valid, .joint_rot = jrot,
+                       .joint_valid = jvalid};
         int r = drv_source_read(s, &f, SOURCE_TIMEOUT_MS, e);
         if (osc && drv_osc_counts_get(s, &oc) == 0)
             mirror_osc_counts(&p->m->osc, &oc);
@@ -477,6 +505,10 @@ static void *source_main(void *arg)
             slot *sl = &p->slots[p->written % SLOT_COUNT];
             memcpy(sl->xyz, xyz, (size_t)s->count * 3 * sizeof(float));
             memcpy(sl->valid, valid, (size_t)s->count);
+            if (joints) {
+                memcpy(sl->jrot, jrot, (size_t)s->count * 4 * sizeof(float));
+                memcpy(sl->jvalid, jvalid, (size_t)s->count);
+            }
             sl->t_capture_us = f.t_capture_us;
             p->written++;
             pthread_cond_signal(&p->slot_cond);
@@ -512,6 +544,8 @@ static void *source_main(void *arg)
     }
     free(xyz);
     free(valid);
+    free(jrot);
+    free(jvalid);
     return NULL;
 }
 
@@ -619,7 +653,7 @@ static void publish(srv_pipeline *p, srv_bundle *b, const mdl_synth *s, uint64_t
 /* Waits for a source frame newer than the last one taken, until deadline_us (CLOCK_MONOTONIC) or
  * stop, and copies it. Returns 1 with a frame, 0 without. */
 static int take_slot(srv_pipeline *p, uint64_t deadline_us, float *xyz, uint8_t *valid,
-                     uint64_t *t_capture)
+                     float *jrot, uint8_t *jvalid, uint64_t *t_capture)
 {
     int count = p->si.count;
     pthread_mutex_lock(&p->slot_lock);
@@ -647,6 +681,10 @@ static int take_slot(srv_pipeline *p, uint64_t deadline_us, float *xyz, uint8_t 
     const slot *sl = &p->slots[(p->written - 1) % SLOT_COUNT];
     memcpy(xyz, sl->xyz, (size_t)count * 3 * sizeof(float));
     memcpy(valid, sl->valid, (size_t)count);
+    if (sl->jrot && jrot) {
+        memcpy(jrot, sl->jrot, (size_t)count * 4 * sizeof(float));
+        memcpy(jvalid, sl->jvalid, (size_t)count);
+    }
     *t_capture = sl->t_capture_us;
     p->taken = p->written;
     pthread_mutex_unlock(&p->slot_lock);
@@ -687,7 +725,7 @@ static int fade_back(srv_pipeline *p, srv_bundle *b, uint64_t now)
 
 /* One frame of the tracked (marker-driven) kind. Returns 0 when a frame was published. */
 static int synth_tracked(srv_pipeline *p, srv_bundle *b, const float *xyz, const uint8_t *valid,
-                         uint64_t t_capture)
+                         const float *jrot, const uint8_t *jvalid, uint64_t t_capture)
 {
     int count = p->si.count;
     if (atomic_exchange(&p->reset_synth, 0))
@@ -699,10 +737,18 @@ static int synth_tracked(srv_pipeline *p, srv_bundle *b, const float *xyz, const
         b->mv[i] = (uint8_t)ok;
         for (int a = 0; a < 3; a++)
             b->mk[i * 3 + a] = ok ? xyz[j * 3 + a] : 0.0f;
+        if (b->joints) { /* the segment ending at each marker (MDL_INPUT_JOINTS) */
+            b->jv[i] = (uint8_t)(ok && jrot && jvalid[j]);
+            for (int a = 0; a < 4; a++)
+                b->jr[i * 4 + a] = b->jv[i] ? jrot[j * 4 + a] : (a == 0);
+        }
     }
     uint64_t t0 = srv_now_us();
     mdl_synth_info si = {0};
-    int r = mdl_synth_markers(b->synth, b->mk, b->mv, b->V, &si); /* V kept when refused */
+    mdl_synth_input in = {.markers = b->mk, .valid = b->mv};
+    if (b->joints)
+        in.njoints = b->nm, in.joint_rot = b->jr, in.joint_valid = b->jv;
+    int r = mdl_synth_frame(b->synth, &in, b->V, &si); /* V kept when refused */
     /* the frame's markers where the model placed them (a harmonic model's template is aligned
      * to its target), so that a viewer draws them on the mesh */
     if (b->mk_scale != 1 || b->mk_t[0] != 0 || b->mk_t[1] != 0 || b->mk_t[2] != 0)
@@ -753,6 +799,8 @@ static void *synth_main(void *arg)
     int count = p->si.count;
     float *xyz = calloc((size_t)count * 3 + 3, sizeof(float));
     uint8_t *valid = calloc((size_t)count + 1, 1);
+    float *jrot = p->si.joints ? calloc((size_t)count * 4 + 4, sizeof(float)) : NULL;
+    uint8_t *jvalid = p->si.joints ? calloc((size_t)count + 1, 1) : NULL;
     uint64_t t_start = srv_now_us(), next_tick = t_start, last_frame = t_start;
     p->t_start_us = t_start;
     p->fade_start_us = 0;
@@ -760,7 +808,7 @@ static void *synth_main(void *arg)
     uint64_t failing_since = 0; /* when the first of them came */
     uint64_t last_capture = 0; /* of the markers in xyz, valid */
     int have_markers = 0;
-    while (xyz && valid && !atomic_load(&p->stop)) {
+    while (xyz && valid && (!p->si.joints || (jrot && jvalid)) && !atomic_load(&p->stop)) {
         srv_bundle *b = &p->cur;
         int clocked = !(b->inputs & MDL_INPUT_MARKERS);
         uint64_t now = srv_now_us();
@@ -775,7 +823,7 @@ static void *synth_main(void *arg)
         int idle = !clocked && b->idle && why;
         uint64_t deadline = clocked || idle ? next_tick : now + 100000u;
         uint64_t t_capture = 0;
-        int got = take_slot(p, deadline, xyz, valid, &t_capture);
+        int got = take_slot(p, deadline, xyz, valid, jrot, jvalid, &t_capture);
         if (atomic_load(&p->stop))
             break;
         int swapped = swap_pending(p);
@@ -794,7 +842,7 @@ static void *synth_main(void *arg)
         if (got) {
             last_frame = now;
             if (!clocked) {
-                if (synth_tracked(p, b, xyz, valid, t_capture) == 0) {
+                if (synth_tracked(p, b, xyz, valid, jrot, jvalid, t_capture) == 0) {
                     failed = 0;
                     set_idle(p, 0, "a pose from the markers");
                 } else if (!failed++) {
@@ -817,6 +865,8 @@ static void *synth_main(void *arg)
     }
     free(xyz);
     free(valid);
+    free(jrot);
+    free(jvalid);
     return NULL;
 }
 
@@ -936,6 +986,8 @@ void srv_pipeline_destroy(srv_pipeline *p)
     for (int k = 0; k < SLOT_COUNT; k++) {
         free(p->slots[k].xyz);
         free(p->slots[k].valid);
+        free(p->slots[k].jrot);
+        free(p->slots[k].jvalid);
     }
     pthread_mutex_destroy(&p->slot_lock);
     pthread_cond_destroy(&p->slot_cond);

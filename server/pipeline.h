@@ -50,6 +50,7 @@ typedef struct srv_source_info {
     int frames;         /* frames of a recording, 0 for a live source */
     unsigned caps;      /* DRV_CAP_* */
     unsigned controls;  /* SRV_CTL_BIT()s accepted when opened */
+    int joints;         /* the source's frames carry joint rotations (drv_source.joints) */
 } srv_source_info;
 
 int srv_source_info_init(srv_source_info *si, const drv_source *src, const char *spec, char *err);
@@ -74,6 +75,9 @@ typedef struct srv_bundle {
     float *mk;          /* nm x 3, model marker order */
     double mk_scale, mk_t[3]; /* where synth places the markers (mdl_synth_marker_placement) */
     uint8_t *mv;        /* nm */
+    int joints;         /* synth reads joint rotations (MDL_INPUT_JOINTS) and the source gives them */
+    float *jr;          /* nm x 4 when joints: the joint rotations, model marker order */
+    uint8_t *jv;        /* nm when joints */
 } srv_bundle;
 
 typedef struct srv_ctl_result {

@@ -23,11 +23,15 @@
  *   bone:  R_b = R_parent C_b M_b C_b^T,  x_b = x_parent + R_b (length_b direction_b),
  *   i.e. x_b is the bone's far end. Translation and length dofs (tx ty tz l) are read and ignored.
  * Markers: "root", then every bone (named after it, its far end), in ASF order; all valid.
+ * Joint rotations (mdl_markers.rot, parent): a bone's segment (its parent's end to its own) turns
+ * with R_b, so rot[b] = R_b, parent[b] = its parent bone's marker (the root's: "root"), rot[root] =
+ * R; every R is the identity in the rest pose (C M C^T with M = I).
  * With opts->rest, or no AMC, one frame: the rest pose (every dof 0, the root at the ASF position).
  * Units: opts->scale, else 0.0254 / L metres per unit; up axis +Y by default; fps 120 (AMC files
  * carry no rate; CMU and HDM05 record at 120 Hz). */
 #include "formats/markers_internal.h"
 #include "model.h"
+#include "core/rigid.h"
 #include "core/util.h"
 
 #include <ctype.h>
@@ -397,8 +401,9 @@ done:
 }
 
 /* forward kinematics of one frame: v[0..root_ndof) the root's values, then each bone's ndof
- * values (in ASF order); P: (1 + nb) x 3 file units; W: 9 (1 + nb) scratch */
-static void fk(const asf *a, const double *v, float *P, double *W)
+ * values (in ASF order); P: (1 + nb) x 3 file units; Q: (1 + nb) x 4 the world rotations (w x y z);
+ * W: 9 (1 + nb) scratch */
+static void fk(const asf *a, const double *v, float *P, float *Q, double *W)
 {
     double ang[MAX_DOF], M[9], T[9], x[3] = {a->root_pos[0], a->root_pos[1], a->root_pos[2]};
     int axes[MAX_DOF], n = 0, at = 0;
@@ -447,6 +452,12 @@ static void fk(const asf *a, const double *v, float *P, double *W)
             double d = R[3 * c] * bn->dir[0] + R[3 * c + 1] * bn->dir[1] + R[3 * c + 2] * bn->dir[2];
             P[3 * (1 + b) + c] = (float)(xp[c] + bn->len * d);
         }
+    }
+    for (int b = 0; b <= a->nb; b++) {
+        double q[4];
+        mdl__mat_to_quat(W + 9 * b, q);
+        for (int i = 0; i < 4; i++)
+            Q[4 * b + i] = (float)q[i];
     }
 }
 
@@ -502,12 +513,14 @@ int mdl_markers_parse_asf_amc(const char *asf_buf, size_t asf_len, const char *a
         r = mdl__markers_set_name(m, 1 + b, a.b[b].name, strlen(a.b[b].name));
     v = mdl__calloc((size_t)nval + 1, sizeof *v);
     W = mdl__calloc(9 * ((size_t)a.nb + 1), sizeof *W);
-    if (r || !v || !W || mdl__markers_unique_names(m)) {
+    if (r || !v || !W || mdl__markers_unique_names(m) || mdl__markers_alloc_rot(m)) {
         r = mdl__err(err, -ENOMEM, "%s: out of memory", name);
         goto done;
     }
+    for (int b = 0; b < a.nb; b++)
+        m->parent[1 + b] = 1 + a.b[b].parent; /* -1 (the root's child) -> 0, "root" */
     if (rest) {
-        fk(&a, v, m->P, W);
+        fk(&a, v, m->P, m->rot, W);
     } else {
         lines L = {.buf = amc_buf, .len = amc_len};
         int f = -1, header = 1;
@@ -522,7 +535,7 @@ int mdl_markers_parse_asf_amc(const char *asf_buf, size_t asf_len, const char *a
             long fn;
             if (is_frame_number(s, &fn)) {
                 if (f >= 0)
-                    fk(&a, v, m->P + 3 * (size_t)f * (size_t)m->count, W);
+                    fk(&a, v, m->P + 3 * (size_t)f * (size_t)m->count, m->rot + 4 * (size_t)f * (size_t)m->count, W);
                 f++;
                 header = 0;
                 memset(v, 0, (size_t)nval * sizeof *v); /* a bone missing from a frame: 0 */
@@ -553,7 +566,7 @@ int mdl_markers_parse_asf_amc(const char *asf_buf, size_t asf_len, const char *a
                 FAIL("%s:%d: frame %d: bone '%s' has more than %d numbers", name, L.line, f + 1,
                      bn, nd);
         }
-        fk(&a, v, m->P + 3 * (size_t)f * (size_t)m->count, W);
+        fk(&a, v, m->P + 3 * (size_t)f * (size_t)m->count, m->rot + 4 * (size_t)f * (size_t)m->count, W);
     }
     memset(m->valid, 1, (size_t)m->frames * (size_t)m->count);
     mdl__markers_convert(m, scale, up);

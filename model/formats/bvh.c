@@ -19,6 +19,8 @@
  * With opts->rest the result is one frame: the rest pose (every channel zero; the root at its
  * OFFSET). Every joint AND every End Site becomes a marker, in declaration order. An End Site is named
  * "<parent>_End" (a repeated name gets "#2"). All samples are valid.
+ * Joint rotations (mdl_markers.rot, parent): marker j's segment from its parent p is R_p t_j, so
+ * rot[j] = R_p (R_j for a root), parent[j] = p; every R is the identity in the rest pose.
  *
  * Units: opts->scale when given. Otherwise the scale is guessed from the skeleton's height in the
  * first frame (extent along the up axis over all markers): among metre (1), centimetre (0.01),
@@ -27,6 +29,7 @@
  * axis +Y. */
 #include "formats/markers_internal.h"
 #include "model.h"
+#include "core/rigid.h"
 #include "core/util.h"
 
 #include <ctype.h>
@@ -252,9 +255,10 @@ static void rotate(double M[9], int axis, double deg)
     memcpy(M, o, sizeof o);
 }
 
-/* Joint positions of one frame from channel values `v` into P (nnodes x 3), using Rw/Xw
+/* Joint positions of one frame from channel values `v` into P (nnodes x 3), and each segment's
+ * rotation into Q (nnodes x 4, w x y z: the parent's world rotation, a root's own), using Rw/Xw
  * (nnodes x 9, nnodes x 3) as workspace. */
-static void fk(const bvh *p, const double *v, double *Rw, double *Xw, float *P)
+static void fk(const bvh *p, const double *v, double *Rw, double *Xw, float *P, float *Q)
 {
     for (int j = 0; j < p->nnodes; j++) {
         const bvh_node *n = &p->nodes[j];
@@ -282,6 +286,10 @@ static void fk(const bvh *p, const double *v, double *Rw, double *Xw, float *P)
         }
         for (int i = 0; i < 3; i++)
             P[3 * j + i] = (float)xj[i];
+        double q[4];
+        mdl__mat_to_quat(n->parent < 0 ? Rj : Rw + 9 * n->parent, q);
+        for (int i = 0; i < 4; i++)
+            Q[4 * j + i] = (float)q[i];
     }
 }
 
@@ -353,10 +361,12 @@ int mdl_markers_parse_bvh(const char *buf, size_t len, const char *name, const m
             goto done;
         }
     }
-    if (mdl__markers_unique_names(m)) {
+    if (mdl__markers_unique_names(m) || mdl__markers_alloc_rot(m)) {
         r = mdl__err(err, -ENOMEM, "%s: out of memory", name);
         goto done;
     }
+    for (int j = 0; j < p.nnodes; j++)
+        m->parent[j] = p.nodes[j].parent;
     work = mdl__calloc((size_t)p.nch + 12 * (size_t)p.nnodes, sizeof *work);
     if (!work) {
         r = mdl__err(err, -ENOMEM, "%s: out of memory", name);
@@ -380,7 +390,8 @@ int mdl_markers_parse_bvh(const char *buf, size_t len, const char *name, const m
                 goto done;
             }
         }
-        fk(&p, v, Rw, Xw, m->P + 3 * (size_t)f * (size_t)p.nnodes);
+        fk(&p, v, Rw, Xw, m->P + 3 * (size_t)f * (size_t)p.nnodes,
+           m->rot + 4 * (size_t)f * (size_t)p.nnodes);
     }
     if (next_tok(&p)) {
         r = mdl__err(err, MDL_EFORMAT, "%s:%d: '%s' after the last of %d frames", name,
@@ -390,7 +401,7 @@ int mdl_markers_parse_bvh(const char *buf, size_t len, const char *name, const m
     if (o && o->rest) {
         /* the skeleton's rest pose: every channel zero (model.h, mdl_marker_opts.rest) */
         memset(v, 0, (size_t)p.nch * sizeof *v);
-        fk(&p, v, Rw, Xw, m->P);
+        fk(&p, v, Rw, Xw, m->P, m->rot);
         m->frames = m->frames > 0 ? 1 : 0;
         if (m->frames == 0) {
             r = mdl__err(err, MDL_EFORMAT, "%s: no frame to hold the rest pose", name);

@@ -61,6 +61,8 @@ void mdl_markers_destroy(mdl_markers *m)
     free(m->names);
     free(m->P);
     free(m->valid);
+    free(m->rot);
+    free(m->parent);
     free(m);
 }
 
@@ -189,6 +191,31 @@ int mdl__marker_opts_resolve(const mdl_marker_opts *o, double file_scale, int de
     return 0;
 }
 
+/* the file axes (x, y, z) of an `up` file to Y-up axes (markers_internal.h's table) */
+static void axes(int up, double x, double y, double z, double *X, double *Y, double *Z)
+{
+    switch (up) {
+    case MDL_UP_X:
+        *X = -y, *Y = x, *Z = z;
+        break;
+    case MDL_UP_NEG_X:
+        *X = y, *Y = -x, *Z = z;
+        break;
+    case MDL_UP_NEG_Y:
+        *X = x, *Y = -y, *Z = -z;
+        break;
+    case MDL_UP_Z:
+        *X = x, *Y = z, *Z = -y;
+        break;
+    case MDL_UP_NEG_Z:
+        *X = x, *Y = -z, *Z = y;
+        break;
+    default: /* MDL_UP_Y */
+        *X = x, *Y = y, *Z = z;
+        break;
+    }
+}
+
 void mdl__markers_convert(mdl_markers *m, double scale, int up)
 {
     size_t n = (size_t)m->frames * (size_t)m->count;
@@ -196,33 +223,40 @@ void mdl__markers_convert(mdl_markers *m, double scale, int up)
         float *p = m->P + 3 * k;
         if (!m->valid[k]) {
             p[0] = p[1] = p[2] = 0;
+            if (m->rot)
+                m->rot[4 * k] = 1, m->rot[4 * k + 1] = m->rot[4 * k + 2] = m->rot[4 * k + 3] = 0;
             continue;
         }
-        double x = p[0], y = p[1], z = p[2], X, Y, Z;
-        switch (up) {
-        case MDL_UP_X:
-            X = -y, Y = x, Z = z;
-            break;
-        case MDL_UP_NEG_X:
-            X = y, Y = -x, Z = z;
-            break;
-        case MDL_UP_NEG_Y:
-            X = x, Y = -y, Z = -z;
-            break;
-        case MDL_UP_Z:
-            X = x, Y = z, Z = -y;
-            break;
-        case MDL_UP_NEG_Z:
-            X = x, Y = -z, Z = y;
-            break;
-        default: /* MDL_UP_Y */
-            X = x, Y = y, Z = z;
-            break;
-        }
+        double X, Y, Z;
+        axes(up, p[0], p[1], p[2], &X, &Y, &Z);
         p[0] = (float)(X * scale);
         p[1] = (float)(Y * scale);
         p[2] = (float)(Z * scale);
+        if (m->rot) {
+            /* P R P^T for the proper rotation P above is the rotation by the same angle about the
+             * axis P a: the quaternion's vector part maps like a point (without the scale) */
+            float *q = m->rot + 4 * k;
+            axes(up, q[1], q[2], q[3], &X, &Y, &Z);
+            q[1] = (float)X, q[2] = (float)Y, q[3] = (float)Z;
+        }
     }
+}
+
+int mdl__markers_alloc_rot(mdl_markers *m)
+{
+    size_t n = (size_t)m->frames * (size_t)m->count;
+    m->rot = mdl__calloc(4 * n + 4, sizeof *m->rot);
+    m->parent = mdl__calloc((size_t)m->count + 1, sizeof *m->parent);
+    if (!m->rot || !m->parent) {
+        free(m->rot), free(m->parent);
+        m->rot = NULL, m->parent = NULL;
+        return -ENOMEM;
+    }
+    for (size_t k = 0; k < n; k++)
+        m->rot[4 * k] = 1;
+    for (int i = 0; i < m->count; i++)
+        m->parent[i] = -1;
+    return 0;
 }
 
 int mdl__markers_set_name(mdl_markers *m, int i, const char *s, size_t n)

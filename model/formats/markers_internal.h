@@ -8,7 +8,8 @@
  *   up +Y: (x, y, z) -> ( x,  y,  z)      up -Y: (x, y, z) -> ( x, -y, -z)
  *   up +Z: (x, y, z) -> ( x,  z, -y)      up -Z: (x, y, z) -> ( x, -z,  y)
  *   up +X: (x, y, z) -> (-y,  x,  z)      up -X: (x, y, z) -> ( y, -x,  z)
- * and then every coordinate is multiplied by the scale (metres per file unit). */
+ * and then every coordinate is multiplied by the scale (metres per file unit). Joint rotations
+ * (mdl_markers.rot) become P R P^T: their axes turn like points, without the scale. */
 #ifndef MESHSTEER_MODEL_MARKERS_INTERNAL_H
 #define MESHSTEER_MODEL_MARKERS_INTERNAL_H
 
@@ -30,6 +31,11 @@ int mdl__marker_opts_resolve(const mdl_marker_opts *o, double file_scale, int de
 /* Converts every sample of m in place from file axes (`up`, an MDL_UP_* other than AUTO) and file
  * units to metres, Y up (see the table above). Invalid samples are set to (0, 0, 0). */
 void mdl__markers_convert(mdl_markers *m, double scale, int up);
+
+/* Allocates m->rot (identity quaternions) and m->parent (-1) for m's frames and count (a skeleton
+ * reader's joint rotations, model.h). mdl__markers_convert turns them with the positions. Returns 0
+ * or -ENOMEM. */
+int mdl__markers_alloc_rot(mdl_markers *m);
 
 /* Replaces names[i] by a copy of the n bytes at s (trimmed of surrounding spaces and control
  * characters; "M<i+1>" when nothing is left). Returns 0 or -ENOMEM. */

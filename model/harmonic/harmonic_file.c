@@ -1,9 +1,10 @@
 /* harmonic_file.c - the harmonic model kind: building it (mdl_harmonic_build, model.h), its chunk of
  * the model file ("HARM", docs/FORMATS.md), its summary and report, and its kind table.
  *
- * The chunk: u32 version (1), then auto_k, the correspondences (triangles, groups), the group tree
- * (candy.c), the bones (a, b, c over the rig's markers), the aligned template rest pose, the
- * alignment, root marker, root bone and anchor vertex. Every count is checked against the model's
+ * The chunk: u32 version (2; 1 still reads, without joints), then auto_k, the correspondences
+ * (triangles, groups), the group tree (candy.c), the bones (a, b, c over the rig's markers), the
+ * aligned template rest pose, the alignment, root marker, root bone and anchor vertex, then
+ * (version 2) per bone its joint + 1 (0: none), R_j(rest) and the rest fit's C_g (4 f64 each). Every count is checked against the model's
  * mesh and rig, every index against what it indexes; the tree is checked to be a tree in order. */
 #include "harmonic/harmonic_internal.h"
 #include "kind.h"
@@ -29,6 +30,9 @@ void mdl__harmonic_free(struct mdl_harmonic *h)
     free(h->bone_b);
     free(h->bone_c);
     free(h->mk_rest);
+    free(h->bone_j);
+    free(h->bone_jrest);
+    free(h->bone_fit);
     free(h);
 }
 
@@ -101,6 +105,51 @@ static int align_template(struct mdl_harmonic *h, const mdl_mesh *tg, const mdl_
     return 0;
 }
 
+/* Which joint rotation drives each bone (MDL_INPUT_JOINTS, harmonic_synth.c), from the template's
+ * skeleton (tr->parent, tr->rot; a template without them: none, every bone on the direction path):
+ * a bone a -> b whose b hangs below a (through any number of segments) turns with the segment
+ * ending at b (a chain's last: Neck -> Head_End turns with the head); one whose a hangs below b, with
+ * the segment ending at a. bone_jrest: that rotation in the template's rest frame; bone_fit: the
+ * identity until the rest fit sets it. */
+static int bone_joints(struct mdl_harmonic *h, const mdl_rig *rig, const mdl_markers *tr, char *err)
+{
+    int nb = h->nbones;
+    h->bone_j = mdl__calloc((size_t)nb + 1, sizeof *h->bone_j);
+    h->bone_jrest = mdl__calloc(4 * (size_t)nb + 4, sizeof *h->bone_jrest);
+    h->bone_fit = mdl__calloc(4 * (size_t)nb + 4, sizeof *h->bone_fit);
+    if (!h->bone_j || !h->bone_jrest || !h->bone_fit)
+        return mdl__err(err, -ENOMEM, "harmonic: out of memory");
+    for (int g = 0; g < nb; g++) {
+        h->bone_j[g] = -1;
+        h->bone_jrest[4 * g] = h->bone_fit[4 * g] = 1;
+        if (!tr->rot || !tr->parent)
+            continue;
+        int a = h->bone_a[g], b = h->bone_b[g];
+        int sa = mdl_markers_find(tr, rig->markers[a].source),
+            sb = mdl_markers_find(tr, rig->markers[b].source);
+        if (sa < 0 || sb < 0 || sa == sb)
+            continue;
+        int j = -1, sj = -1;
+        for (int x = tr->parent[sb], n = 0; x >= 0 && n < tr->count && j < 0; x = tr->parent[x], n++)
+            if (x == sa)
+                j = b, sj = sb;
+        for (int x = tr->parent[sa], n = 0; x >= 0 && n < tr->count && j < 0; x = tr->parent[x], n++)
+            if (x == sb)
+                j = a, sj = sa;
+        if (j < 0)
+            continue;
+        const float *q = tr->rot + 4 * (size_t)sj;
+        double n = (double)q[0] * q[0] + (double)q[1] * q[1] + (double)q[2] * q[2] + (double)q[3] * q[3];
+        if (!tr->valid[sj] || !(n > 0.25 && n < 4))
+            continue;
+        h->bone_j[g] = j;
+        for (int k = 0; k < 4; k++)
+            h->bone_jrest[4 * g + k] = q[k];
+        mdl__qnorm(h->bone_jrest + 4 * g);
+    }
+    return 0;
+}
+
 int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_markers *template_rest,
                        const mdl_harmonic_opts *o, mdl_model **out, char *err)
 {
@@ -156,7 +205,8 @@ int mdl_harmonic_build(const mdl_mesh *target, const mdl_rig *rig, const mdl_mar
         for (int b = 0; b < nb && h->root_bone < 0; b++)
             if (h->bone_a[b] == h->root_marker)
                 h->root_bone = b;
-        if ((rc = align_template(h, target, rig, template_rest, o->template_motion, err)))
+        if ((rc = align_template(h, target, rig, template_rest, o->template_motion, err)) ||
+            (rc = bone_joints(h, rig, template_rest, err)))
             goto fail;
         /* the template's rest pose onto the target's (rest_fit.c), before the correspondences */
         int kept = 0;
@@ -241,7 +291,7 @@ static void harm_save(const void *impl, const mdl_model *m, mdl__wbuf *b)
 {
     const struct mdl_harmonic *h = impl;
     (void)m;
-    mdl__put_u32(b, 1);
+    mdl__put_u32(b, 2);
     mdl__put_u32(b, (uint32_t)h->auto_k);
     mdl__put_u32(b, (uint32_t)h->ncorr);
     mdl__put_i32s(b, h->corr_tri, (size_t)h->ncorr);
@@ -261,6 +311,14 @@ static void harm_save(const void *impl, const mdl_model *m, mdl__wbuf *b)
         mdl__put_u32(b, (uint32_t)h->root_marker);
         mdl__put_u32(b, (uint32_t)(h->root_bone + 1));
         mdl__put_u32(b, (uint32_t)h->anchor_vertex);
+        /* version 2: the joints (bone_joints) */
+        for (int g = 0; g < h->nbones; g++) {
+            mdl__put_u32(b, (uint32_t)(h->bone_j[g] + 1));
+            for (int k = 0; k < 4; k++)
+                mdl__put_f64(b, h->bone_jrest[4 * g + k]);
+            for (int k = 0; k < 4; k++)
+                mdl__put_f64(b, h->bone_fit[4 * g + k]);
+        }
     }
 }
 
@@ -274,7 +332,7 @@ static int harm_parse(mdl__rbuf *b, const mdl_model *m, void **impl)
     h->nf = m->nf;
     h->align_scale = 1;
     h->root_bone = -1;
-    mdl__get_int(b, "harmonic chunk version", 1, 1);
+    int version = mdl__get_int(b, "harmonic chunk version", 1, 2);
     h->auto_k = mdl__get_int(b, "auto:K", 0, m->nf);
     h->ncorr = mdl__get_int(b, "correspondences", 1, m->nf);
     h->corr_tri = mdl__get_ints(b, (size_t)h->ncorr, "correspondence triangles", 0, m->nf - 1);
@@ -298,6 +356,30 @@ static int harm_parse(mdl__rbuf *b, const mdl_model *m, void **impl)
         h->root_marker = mdl__get_int(b, "root marker", 0, nmk - 1);
         h->root_bone = mdl__get_int(b, "root bone", 0, h->nbones) - 1;
         h->anchor_vertex = mdl__get_int(b, "anchor vertex", 0, m->nv - 1);
+        /* version 1 has no joints: every bone stays on the direction path */
+        h->bone_j = mdl__calloc((size_t)h->nbones + 1, sizeof *h->bone_j);
+        h->bone_jrest = mdl__calloc(4 * (size_t)h->nbones + 4, sizeof *h->bone_jrest);
+        h->bone_fit = mdl__calloc(4 * (size_t)h->nbones + 4, sizeof *h->bone_fit);
+        if (!h->bone_j || !h->bone_jrest || !h->bone_fit)
+            b->rc = b->rc ? b->rc : -ENOMEM;
+        for (int g = 0; !b->rc && g < h->nbones; g++) {
+            h->bone_j[g] = -1;
+            h->bone_jrest[4 * g] = h->bone_fit[4 * g] = 1;
+            if (version < 2)
+                continue;
+            h->bone_j[g] = mdl__get_int(b, "bone joint", 0, nmk) - 1;
+            for (int k = 0; k < 8; k++) {
+                double x = mdl__get_f64(b, "bone joint rotations");
+                if (!b->rc && !(fabs(x) <= 1.0 + 1e-6))
+                    mdl__rfail(b, "bone joint rotations: not a unit quaternion");
+                (k < 4 ? h->bone_jrest + 4 * g : h->bone_fit + 4 * g - 4)[k] = x;
+            }
+            if (!b->rc && (h->bone_j[g] != h->bone_a[g] && h->bone_j[g] != h->bone_b[g] &&
+                           h->bone_j[g] != -1))
+                mdl__rfail(b, "bone joint: neither of the bone's markers");
+            mdl__qnorm(h->bone_jrest + 4 * g);
+            mdl__qnorm(h->bone_fit + 4 * g);
+        }
     }
     if (!b->rc) {
         /* the order visits every group once, each after its parent; the first is the root */
@@ -336,10 +418,12 @@ static void harm_describe(const void *impl, const mdl_model *m, char *buf, size_
         int n = 0;
         for (int i = 0; i < h->ncorr; i++)
             n += h->corr_group[i] == g;
-        mdl__appendf(buf, len, at, "  bone %-2d %s -> %s%s%s: %d triangles\n", g,
+        mdl__appendf(buf, len, at, "  bone %-2d %s -> %s%s%s%s%s: %d triangles\n", g,
                      m->rig->markers[h->bone_a[g]].name, m->rig->markers[h->bone_b[g]].name,
                      h->bone_c[g] >= 0 ? ", twist " : "",
-                     h->bone_c[g] >= 0 ? m->rig->markers[h->bone_c[g]].name : "", n);
+                     h->bone_c[g] >= 0 ? m->rig->markers[h->bone_c[g]].name : "",
+                     h->bone_j[g] >= 0 ? ", joint " : "",
+                     h->bone_j[g] >= 0 ? m->rig->markers[h->bone_j[g]].name : "", n);
     }
     mdl__appendf(buf, len, at, "triangles ");
     for (int i = 0; i < h->ncorr && *at < len; i++)
@@ -369,6 +453,16 @@ static void harm_info(const void *impl, mdl_model_info *info)
     }
 }
 
+/* joints only when some bone has one (a template read from a skeleton: BVH, ASF/AMC) */
+static unsigned harm_inputs(const void *impl)
+{
+    const struct mdl_harmonic *h = impl;
+    for (int g = 0; g < h->nbones; g++)
+        if (h->bone_j && h->bone_j[g] >= 0)
+            return MDL_INPUT_MARKERS | MDL_INPUT_JOINTS;
+    return MDL_INPUT_MARKERS;
+}
+
 static void harm_destroy(void *impl)
 {
     mdl__harmonic_free(impl);
@@ -378,7 +472,8 @@ const mdl_kind_ops mdl__harmonic_kind = {
     .id = MDL_KIND_HARMONIC,
     .name = "harmonic",
     .tag = {'H', 'A', 'R', 'M'},
-    .inputs = MDL_INPUT_MARKERS,
+    .inputs = MDL_INPUT_MARKERS | MDL_INPUT_JOINTS,
+    .inputs_of = harm_inputs,
     .destroy = harm_destroy,
     .save = harm_save,
     .parse = harm_parse,

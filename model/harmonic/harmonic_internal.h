@@ -99,6 +99,13 @@ struct mdl_harmonic {
                                        on the target's floor; mk_rest has its own t) */
     int root_marker, root_bone, anchor_vertex;
     int auto_k;        /* the K of auto:K (0 for a rig's correspondences) */
+    /* joint rotations (MDL_INPUT_JOINTS, harmonic_synth.c), per bone: */
+    int *bone_j;       /* the rig marker whose segment rotation (mdl_markers.rot) drives the bone:
+                          b when b hangs below a in the template's skeleton (the last segment of
+                          the chain a -> b), a when a hangs below b; -1: none (direction path) */
+    double *bone_jrest;/* nbones x 4: that rotation in the template's rest pose, R_j(rest) */
+    double *bone_fit;  /* nbones x 4: C_g, the rest fit's turn of the bone from the template's rest
+                          direction to the target's limb (rest_fit.c; identity without it) */
 };
 
 void mdl__harmonic_free(struct mdl_harmonic *h);
@@ -169,7 +176,9 @@ int mdl__corr_bones(struct mdl_harmonic *h, const float *rest, const uint32_t *F
                     int per_bone, const int *given_off, const int *given_idx, char *err);
 /* rest_fit.c: poses h->mk_rest (the aligned template rest) to the target's rest pose V: each bone
  * below the root turned onto the axis of the target's limb it lies in. kept: the bones that found no
- * limb and kept their direction. Allocates. */
+ * limb and kept their direction. h->bone_fit (when allocated) gets each bone's C_g: the
+ * rotations the fit applied to its end, then the shortest arc that takes the result onto the bone's
+ * fitted direction (the end's shift onto its section's centre). Allocates. */
 int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int nv, int nf,
                   int *kept, char *err);
 /* For each triangle the correspondence geodesically nearest to it (Dijkstra on the edge graph from
@@ -221,6 +230,13 @@ int mdl__harmonic_synth_frame(void *state, const mdl_synth_input *in, float *V, 
 void mdl__harmonic_synth_reset(void *state);
 void mdl__harmonic_synth_marker_placement(const void *state, double *scale, double t[3]);
 void mdl__harmonic_synth_destroy(void *state);
+/* The rotation of a bone driven by its joint (MDL_INPUT_JOINTS): Q = q_t q_rest^* (the template's
+ * rotation since its rest pose), composed with the rest fit, Q C^*; then, when both markers are
+ * known (d0 the fitted rest direction, d the current one, unit; NULL otherwise), the shortest arc
+ * from Q C^* d0 onto d in front (the identity for a one-segment bone; a chain's bend for a bone over
+ * several segments). Returns that arc's angle (radians). */
+double mdl__harmonic_joint_quat(const double q_t[4], const double q_rest[4], const double C[4],
+                                const double *d0, const double *d, double q[4]);
 /* A bone's rotation from its rest markers (a0, b0, twist c0 or NULL) to its current ones. */
 void mdl__harmonic_bone_quat(const float *a0, const float *b0, const float *c0, const float *a,
                              const float *b, const float *c, double q[4]);

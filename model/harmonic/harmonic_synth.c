@@ -1,6 +1,13 @@
-/* harmonic_synth.c - driving the harmonic model from markers: the template of de Aguiar et al. 2007
- * Sec. 5 without 3ds Max.
+/* harmonic_synth.c - driving the harmonic model from markers and joint rotations: the template of
+ * de Aguiar et al. 2007 Sec. 5 without 3ds Max ("their bones become template triangles").
  *
+ * With joint rotations (MDL_INPUT_JOINTS, a BVH or ASF/AMC source; h->bone_j >= 0): the bone's
+ * rotation is A R_j(t) R_j(rest)^T A^T C_g^T (R_j the world rotation of the segment that drives the
+ * bone, A the template-to-target alignment - a scale and a translation, so A's rotation is the
+ * identity - and C_g the rest fit's turn of the bone), then the shortest arc from where that puts
+ * the fitted rest direction onto the markers' direction (none for a one-segment bone, a chain's bend
+ * otherwise): the full rotation, twist included. A bone whose joint is invalid takes the path below.
+ * Without them (or for such a bone):
  * The template is a skeleton of bones, each a pair of markers (a, b) - joint positions by forward
  * kinematics from BVH or ASF/AMC, or any tracked points - with an optional third marker c. Per frame:
  *   - markers are mapped into the target's space by the rest alignment (p' = s p + t);
@@ -137,6 +144,39 @@ void mdl__harmonic_bone_quat(const float *a0, const float *b0, const float *c0, 
     }
 }
 
+/* quaternion product a b (w first) */
+static void qmul(const double *a, const double *b, double *c)
+{
+    double w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+    double x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
+    double y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
+    double z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
+    c[0] = w, c[1] = x, c[2] = y, c[3] = z;
+}
+
+double mdl__harmonic_joint_quat(const double q_t[4], const double q_rest[4], const double C[4],
+                                const double *d0, const double *d, double q[4])
+{
+    double rc[4] = {q_rest[0], -q_rest[1], -q_rest[2], -q_rest[3]}, cc[4] = {C[0], -C[1], -C[2], -C[3]};
+    double Q[4];
+    qmul(q_t, rc, Q);
+    qmul(Q, cc, q);
+    mdl__qnorm(q);
+    if (!d0 || !d)
+        return 0;
+    /* the fitted rest direction as the joint turns it, then the arc onto the markers' direction */
+    double R[9], v[3], sw[4], out[4];
+    mdl__quat_to_mat(q, R);
+    for (int i = 0; i < 3; i++)
+        v[i] = R[3 * i] * d0[0] + R[3 * i + 1] * d0[1] + R[3 * i + 2] * d0[2];
+    norm3(v);
+    swing(v, d, sw);
+    qmul(sw, q, out);
+    memcpy(q, out, sizeof out);
+    mdl__qnorm(q);
+    return 2 * acos(fmin(1.0, fabs(sw[0])));
+}
+
 int mdl__harmonic_synth_create(const mdl_model *m, const void *impl, void **state, char *err)
 {
     const struct mdl_harmonic *h = impl;
@@ -222,6 +262,30 @@ int mdl__harmonic_synth_frame(void *state, const mdl_synth_input *in, float *V, 
     for (int g = 0; g < h->nbones; g++) {
         int a = h->bone_a[g], b = h->bone_b[g], c = h->bone_c[g];
         double *q = s->qg + 4 * g;
+        /* the joint's rotation, where the source gives it (the full rotation, twist included) */
+        int j = h->bone_j ? h->bone_j[g] : -1;
+        if (j >= 0 && in->joint_rot && j < in->njoints && (!in->joint_valid || in->joint_valid[j])) {
+            const float *r = in->joint_rot + 4 * (size_t)j;
+            double qt[4] = {r[0], r[1], r[2], r[3]};
+            double n = qt[0] * qt[0] + qt[1] * qt[1] + qt[2] * qt[2] + qt[3] * qt[3];
+            if (isfinite(n) && n > 0.25 && n < 4) {
+                double d0[3], d[3];
+                int dir = s->seen[a] && s->seen[b];
+                for (int k = 0; k < 3 && dir; k++) {
+                    d0[k] = (double)h->mk_rest[3 * b + k] - h->mk_rest[3 * a + k];
+                    d[k] = (double)s->mk[3 * b + k] - s->mk[3 * a + k];
+                }
+                dir = dir && norm3(d0) > 1e-9 && norm3(d) > 1e-9;
+                mdl__qnorm(qt);
+                double arc = mdl__harmonic_joint_quat(qt, h->bone_jrest + 4 * g, h->bone_fit + 4 * g,
+                                                      dir ? d0 : NULL, dir ? d : NULL, q);
+                if (info) {
+                    info->joints_used++;
+                    info->joint_arc_max = fmax(info->joint_arc_max, arc);
+                }
+                continue;
+            }
+        }
         if (!s->seen[a] || !s->seen[b]) {
             q[0] = 1, q[1] = q[2] = q[3] = 0;
             continue;

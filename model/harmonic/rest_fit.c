@@ -31,6 +31,7 @@
  * meets a loop, and then reports it in `kept`. A section visits only the triangles of the grid
  * cells its plane passes (a uniform grid over the centroids). Set-up only: allocates. */
 #include "harmonic/harmonic_internal.h"
+#include "core/rigid.h"
 #include "core/util.h"
 
 #include <errno.h>
@@ -376,6 +377,16 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
     uint8_t *twist_only = mdl__calloc((size_t)h->nmk + 1, 1);
     uint8_t *chain_start = mdl__calloc((size_t)h->nmk + 1, 1);
     double *dirs = mdl__calloc(3 * FIT_DIRS, sizeof *dirs);
+    /* each marker's accumulated turn (for bone_fit) and the unfitted rest pose */
+    double *M = mdl__calloc(9 * (size_t)h->nmk + 9, sizeof *M);
+    float *orig = mdl__calloc(3 * (size_t)h->nmk + 3, sizeof *orig);
+    if (!M || !orig) {
+        rc = mdl__err(err, -ENOMEM, "rest fit: out of memory");
+        goto out;
+    }
+    memcpy(orig, h->mk_rest, 3 * (size_t)h->nmk * sizeof *orig);
+    for (int i = 0; i < h->nmk; i++)
+        M[9 * i] = M[9 * i + 4] = M[9 * i + 8] = 1;
     if (!f.adj || !f.cand || !f.s || !f.par || !f.acc || !f.mid || !f.len || !f.inball || !done || !below || !twist_only || !chain_start || !dirs) {
         rc = mdl__err(err, -ENOMEM, "rest fit: out of memory");
         goto out;
@@ -503,8 +514,15 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
         }
         float a[3] = {pa[0], pa[1], pa[2]};
         for (int i = 0; i < h->nmk; i++)
-            if (below[i])
+            if (below[i]) {
                 rotate_about(h->mk_rest + 3 * i, a, R);
+                double T[9];
+                for (int r = 0; r < 3; r++)
+                    for (int c = 0; c < 3; c++)
+                        T[3 * r + c] = R[3 * r] * M[9 * i + c] + R[3 * r + 1] * M[9 * i + 3 + c] +
+                                       R[3 * r + 2] * M[9 * i + 6 + c];
+                memcpy(M + 9 * i, T, sizeof T);
+            }
         /* a chain's first bone (its start is no bone's end: a shoulder) moves onto the limb's axis
          * with everything below it; a joint between two bones stays where its parent put it */
         if (chain_start[h->bone_a[g]])
@@ -524,7 +542,31 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
                         h->mk_rest[3 * i + j] += sh[j];
         }
     }
+    /* C_g (bone_fit): the turns applied to the bone's end, then the arc onto its fitted direction */
+    for (int g = 0; g < nb && h->bone_fit; g++) {
+        const float *a0 = orig + 3 * h->bone_a[g], *b0 = orig + 3 * h->bone_b[g];
+        const float *a1 = h->mk_rest + 3 * h->bone_a[g], *b1 = h->mk_rest + 3 * h->bone_b[g];
+        const double *Mb = M + 9 * h->bone_b[g];
+        double d0[3], d1[3], v[3], R[9], C[9];
+        for (int j = 0; j < 3; j++)
+            d0[j] = (double)b0[j] - a0[j], d1[j] = (double)b1[j] - a1[j];
+        for (int j = 0; j < 3; j++)
+            v[j] = Mb[3 * j] * d0[0] + Mb[3 * j + 1] * d0[1] + Mb[3 * j + 2] * d0[2];
+        double lv = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),
+               l1 = sqrt(d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]);
+        memcpy(C, Mb, sizeof C);
+        if (lv > 0 && l1 > 0) {
+            for (int j = 0; j < 3; j++)
+                v[j] /= lv, d1[j] /= l1;
+            arc(v, d1, R);
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 3; c++)
+                    C[3 * r + c] = R[3 * r] * Mb[c] + R[3 * r + 1] * Mb[3 + c] + R[3 * r + 2] * Mb[6 + c];
+        }
+        mdl__mat_to_quat(C, h->bone_fit + 4 * g);
+    }
 out:
+    free(M), free(orig);
     free(f.adj), free(f.cand), free(f.s), free(f.par), free(f.acc), free(f.mid), free(f.len);
     free(f.inball), free(f.cell_off), free(f.cell_tri), free(f.bcell);
     free(done), free(below), free(twist_only), free(chain_start), free(dirs);

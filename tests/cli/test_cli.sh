@@ -141,21 +141,35 @@ if [ -f "$human" ] && [ -f "$data/mocap/bvh/cmu/131_03.bvh" ]; then
         fi
         expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$rig" \
             --template "$bvh" -o "$dir/human.msm"
-        expect_status 0 "$ms" synth --model "$dir/human.msm" --markers "$bvh" -o "$dir/human.pc2" --json
-        cp "$dir/out" "$dir/human.json"
-        [ "$(json_num "$dir/human.json" nonfinite)" = "0" ] || fail "human $take: non-finite values"
-        jo=$(json_num "$dir/human.json" output_jitter) ji=$(json_num "$dir/human.json" input_jitter)
-        awk -v o="$jo" -v i="$ji" 'BEGIN { exit !(o < 2 * i) }' ||
-            fail "human $take: jitter $jo is more than twice its input's ($ji)"
-        # on the floor, not 1.2 m above it (the rest pose's root is at the origin, the frames'
-        # at the hip height)
-        lo=$(grep '"bbox_min"' "$dir/human.json" | grep -o '\[.*\]' | tr -d '[] \t')
-        awk -v lo="$lo" 'BEGIN { split(lo, a, ","); exit !(a[2] > -0.15 && a[2] < 0.15) }' ||
-            fail "human $take: lowest point $lo is not near the floor"
+        # driven by the file's joint rotations (the default), then by its markers alone
+        # (--no-joints: the direction path of a marker-only source); the same bounds for both
+        for how in joints markers; do
+            nj=""
+            [ "$how" = markers ] && nj=--no-joints
+            expect_status 0 "$ms" synth --model "$dir/human.msm" --markers "$bvh" -o "$dir/human-$how.pc2" \
+                --json $nj
+            cp "$dir/out" "$dir/human.json"
+            [ "$(json_num "$dir/human.json" nonfinite)" = "0" ] || fail "human $take ($how): non-finite values"
+            jb=$(json_num "$dir/human.json" joint_bones)
+            if [ "$how" = joints ]; then
+                [ "$jb" -gt 0 ] || fail "human $take: no bone driven by the file's joint rotations"
+            else
+                [ "$jb" = 0 ] || fail "human $take --no-joints: $jb bones driven by joint rotations"
+            fi
+            jo=$(json_num "$dir/human.json" output_jitter) ji=$(json_num "$dir/human.json" input_jitter)
+            awk -v o="$jo" -v i="$ji" 'BEGIN { exit !(o < 2 * i) }' ||
+                fail "human $take ($how): jitter $jo is more than twice its input's ($ji)"
+            # on the floor, not 1.2 m above it (the rest pose's root is at the origin, the frames'
+            # at the hip height)
+            lo=$(grep '"bbox_min"' "$dir/human.json" | grep -o '\[.*\]' | tr -d '[] \t')
+            awk -v lo="$lo" 'BEGIN { split(lo, a, ","); exit !(a[2] > -0.15 && a[2] < 0.15) }' ||
+                fail "human $take ($how): lowest point $lo is not near the floor"
+            echo "human $take ($how, $jb bones by joints): jitter $jo (input $ji), box from $lo"
+        done
+        cp "$dir/human-joints.pc2" "$dir/human.pc2"
         n=$(json_num "$dir/human.json" frames)
         expect_status 0 "$ms" render --mesh "$dir/human.pc2" --rest "$human" --frames "0:$n:$((n / 12))" \
             -o "${MESHSTEER_BUILD:-$dir}/human-$take-contact-sheet.png"
-        echo "human $take: jitter $jo (input $ji), box from $lo"
     done
     # the hop again with the template's rest pose fitted to the T-posed man (--fit-rest, opt-in:
     # docs/MODEL.md), for its contact sheet; test_human.c checks its feet
@@ -181,7 +195,7 @@ if [ -f "$human" ] && [ -f "$data/mocap/bvh/cmu/131_03.bvh" ]; then
         [ -n "$n" ] && [ "$n" -gt 8 ] || fail "--correspondences FILE: $b has '$n' triangles, no cross-section"
         echo "correspondences file: $b: $n triangles"
     done
-    grep -q "RightHip -> RightKnee, twist LeftHip: 8 triangles" "$dir/out" ||
+    grep -q "RightHip -> RightKnee, twist LeftHip, joint RightKnee: 8 triangles" "$dir/out" ||
         fail "--correspondences FILE: a bone the file does not name is not automatic"
     expect_status 2 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-cmu-harmonic.json" \
         --template "$bvh" --correspondences "$src/tests/data/harmonic/corr_bad_bone.json" -o "$dir/bad.msm"

@@ -44,7 +44,7 @@ int main(void)
         ASSERT_OK(rs.ops->start(&rs, err), err);
         float rxyz[18];
         uint8_t rvalid[6];
-        drv_frame rf = {0, 0, 6, rxyz, rvalid};
+        drv_frame rf = {.count = 6, .xyz = rxyz, .valid = rvalid};
         for (int k = 0; k < 3; k++) {
             int r = rs.ops->read(&rs, &rf, 3000, err);
             ASSERT_OK(r, err);
@@ -121,7 +121,7 @@ int main(void)
     ASSERT_OK(s.ops->start(&s, err), err);
     float xyz[18];
     uint8_t valid[6];
-    drv_frame fr = {0, 0, 6, xyz, valid};
+    drv_frame fr = {.count = 6, .xyz = xyz, .valid = valid};
     for (int k = 0; k < 3; k++) {
         int r = s.ops->read(&s, &fr, 1000, err);
         ASSERT_OK(r, err);

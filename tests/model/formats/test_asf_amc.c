@@ -3,6 +3,7 @@
  * the rest pose, the skeleton found by name prefix (HDM05), the CMU files, and malformed inputs. */
 #include "model.h"
 #include "test.h"
+#include "segrot.h"
 
 #include <errno.h>
 
@@ -126,6 +127,17 @@ int main(void)
     printf("HDM05 dg: %d frames, height range %.3f .. %.3f m\n", m->frames, lo, hi);
     ASSERT_NEAR(lo, 0, 0.08); /* the feet on the floor */
     ASSERT_NEAR(hi - lo, 1.75, 0.15);
+    {
+        /* the joint rotations reproduce every bone of every frame */
+        mdl_markers *r = NULL;
+        mdl_marker_opts ro = {.rest = 1};
+        ASSERT_OK(mdl_markers_read(test_data("mocap/asf_amc/hdm05/HDM_dg_06-03_03_120.amc"), &ro,
+                                   &r, err), err);
+        ASSERT_INT_EQ(m->parent[mdl_markers_find(m, "lhipjoint")], 0);
+        ASSERT_INT_EQ(m->parent[mdl_markers_find(m, "lradius")], mdl_markers_find(m, "lhumerus"));
+        printf("HDM05 dg joint rotations: largest segment error %.2e m\n", segrot_check(m, r, 1e-4));
+        mdl_markers_destroy(r);
+    }
     mdl_markers_destroy(m);
     ASSERT_OK(mdl_markers_read(test_data("mocap/asf_amc/cmu_via_gsimchoni/lambada.amc"), NULL, &m,
                                err), err);

@@ -2,6 +2,7 @@
  * walk file, and malformed inputs. */
 #include "model.h"
 #include "test.h"
+#include "segrot.h"
 
 #include <errno.h>
 
@@ -138,6 +139,24 @@ static void test_cmu(void)
         ASSERT_NEAR_I(P[3 * arg + 1], 0, 0.10, f);
         ASSERT(strstr(m->names[arg], "Toe") != NULL);
     }
+    /* the joint rotations reproduce every segment of every frame (float positions: 1e-4 m), also
+     * read with +Z up (the rotations turn with the axes) */
+    mdl_markers *r = NULL;
+    mdl_marker_opts ro = {.rest = 1};
+    ASSERT_OK(mdl_markers_read(test_data("mocap/bvh/cmu/131_01.bvh"), &ro, &r, err), err);
+    ASSERT_INT_EQ(m->parent[0], -1);
+    ASSERT_INT_EQ(m->parent[mdl_markers_find(m, "LeftWrist")], mdl_markers_find(m, "LeftElbow"));
+    printf("131_01 joint rotations: largest segment error %.2e m\n", segrot_check(m, r, 1e-4));
+    for (int i = 0; i < r->count; i++)
+        ASSERT_NEAR_I(r->rot[4 * i], 1, 1e-6, i); /* the rest pose: the identity */
+    mdl_markers_destroy(r);
+    mdl_markers_destroy(m);
+    ro.up = MDL_UP_Z;
+    ASSERT_OK(mdl_markers_read(test_data("mocap/bvh/cmu/131_01.bvh"), &ro, &r, err), err);
+    ro.rest = 0;
+    ASSERT_OK(mdl_markers_read(test_data("mocap/bvh/cmu/131_01.bvh"), &ro, &m, err), err);
+    printf("131_01 read with +Z up: largest segment error %.2e m\n", segrot_check(m, r, 1e-4));
+    mdl_markers_destroy(r);
     mdl_markers_destroy(m);
 }
 

@@ -130,6 +130,63 @@ int main(void)
     mdl_model_destroy(back);
     mdl_model_destroy(model);
 
+    /* a skeleton template (joint rotations, mdl_markers.rot): the elbow hangs from the root, the
+     * tip from the elbow; both bones are driven by their joints (MDL_INPUT_JOINTS), which survive
+     * the file; a rigid turn given as markers + joint rotations moves the mesh rigidly; a bone
+     * whose joint is invalid takes the direction path; the joints path allocates nothing */
+    tr->rot = calloc(4 * 4, sizeof *tr->rot);
+    tr->parent = calloc(4, sizeof *tr->parent);
+    ASSERT(tr->rot && tr->parent);
+    const int par[4] = {-1, 0, 1, 0};
+    for (int i = 0; i < 4; i++)
+        tr->rot[4 * i] = 1, tr->parent[i] = par[i];
+    mdl_model *jm = NULL, *jback = NULL;
+    ASSERT_OK(mdl_harmonic_build(m, rig, tr, &o, &jm, err), err);
+    mdl_model_get_info(jm, &info);
+    ASSERT_INT_EQ(info.inputs, MDL_INPUT_MARKERS | MDL_INPUT_JOINTS);
+    ASSERT_OK(mdl_model_save(jm, path, err), err);
+    ASSERT_OK(mdl_model_load(path, &jback, err), err);
+    unlink(path);
+    mdl_model_describe(jback, desc, sizeof desc);
+    ASSERT(strstr(desc, "elbow, twist side, joint elbow") && strstr(desc, "tip, twist side, joint tip"));
+    mdl_synth *js = NULL;
+    ASSERT_OK(mdl_synth_create(jback, 0, &js, err), err);
+    ASSERT_INT_EQ(mdl_synth_inputs(js), MDL_INPUT_MARKERS | MDL_INPUT_JOINTS);
+    float jr[16];
+    for (int i = 0; i < 4; i++)
+        for (int c = 0; c < 4; c++)
+            jr[4 * i + c] = (float)q[c];
+    uint8_t jvalid[4] = {1, 1, 1, 1};
+    mdl_synth_input jin = {.markers = mk, .njoints = 4, .joint_rot = jr, .joint_valid = jvalid};
+    mdl_synth_info jinfo;
+    ASSERT_OK(mdl_synth_frame(js, &jin, V, &jinfo), "synth joints");
+    ASSERT_INT_EQ(jinfo.joints_used, 2);
+    printf("joints: largest arc onto the markers %.2e rad\n", jinfo.joint_arc_max);
+    ASSERT_LE(jinfo.joint_arc_max, 1e-5);
+    for (int v = 0; v < m->nv; v++)
+        for (int c = 0; c < 3; c++) {
+            const float *x = m->V + 3 * v;
+            double y = R[3 * c] * x[0] + R[3 * c + 1] * x[1] + R[3 * c + 2] * x[2] + t[c];
+            ASSERT_NEAR_I(V[3 * v + c], y, 1e-4, 3 * v + c);
+        }
+    jvalid[2] = 0;
+    ASSERT_OK(mdl_synth_frame(js, &jin, V, &jinfo), "synth joints");
+    ASSERT_INT_EQ(jinfo.joints_used, 1);
+    jvalid[2] = 1;
+    {
+        struct mallinfo2 before = mallinfo2();
+        for (int it = 0; it < 10; it++) {
+            jvalid[1] = (uint8_t)(it % 3 != 0);
+            ASSERT_OK(mdl_synth_frame(js, &jin, V, &jinfo), "synth joints");
+        }
+        struct mallinfo2 after = mallinfo2();
+        ASSERT_INT_EQ(after.uordblks, before.uordblks);
+        ASSERT_INT_EQ(after.hblkhd, before.hblkhd);
+    }
+    mdl_synth_destroy(js);
+    mdl_model_destroy(jback);
+    mdl_model_destroy(jm);
+
     /* auto:K */
     o.auto_k = 30;
     ASSERT_OK(mdl_harmonic_build(m, NULL, NULL, &o, &model, err), err);
