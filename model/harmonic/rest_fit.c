@@ -435,11 +435,6 @@ int mdl__rest_fit(struct mdl_harmonic *h, const float *V, const uint32_t *F, int
         done[g] = 1;
         if (h->bone_a[g] == h->root_marker)
             continue;
-        int leaf = 1;
-        for (int o = 0; o < nb; o++)
-            leaf = leaf && h->bone_a[o] != h->bone_b[g];
-        if (leaf && getenv("NOLEAF"))
-            continue;
         float *pa = h->mk_rest + 3 * h->bone_a[g], *pb = h->mk_rest + 3 * h->bone_b[g];
         double d0[3] = {(double)pb[0] - pa[0], (double)pb[1] - pa[1], (double)pb[2] - pa[2]};
         double L = sqrt(d0[0] * d0[0] + d0[1] * d0[1] + d0[2] * d0[2]);

@@ -141,6 +141,14 @@ int main(void)
     for (int i = 0; i < 4; i++)
         tr->rot[4 * i] = 1, tr->parent[i] = par[i];
     mdl_model *jm = NULL, *jback = NULL;
+    /* without the rest fit the joints are not used (harmonic_file.c: they would turn the target's
+     * limbs about the template's rest axes) */
+    ASSERT_OK(mdl_harmonic_build(m, rig, tr, &o, &jm, err), err);
+    mdl_model_get_info(jm, &info);
+    ASSERT_INT_EQ(info.inputs, MDL_INPUT_MARKERS);
+    mdl_model_destroy(jm);
+    jm = NULL;
+    o.fit_rest = 1;
     ASSERT_OK(mdl_harmonic_build(m, rig, tr, &o, &jm, err), err);
     mdl_model_get_info(jm, &info);
     ASSERT_INT_EQ(info.inputs, MDL_INPUT_MARKERS | MDL_INPUT_JOINTS);
