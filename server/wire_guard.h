@@ -25,7 +25,8 @@
  *    max_fields). Read: Upgrade (contains "websocket": frames follow the head), Content-Length
  *    (a body of that many bytes follows, skipped; RFC 9112 Sec. 6.3: not digits, or two that
  *    differ, is 400), Transfer-Encoding (501: no request of this daemon has content, RFC 9112
- *    Sec. 6.1). A raw NUL anywhere in the head, or "%00" in the request-target, is 400.
+ *    Sec. 6.1). A raw NUL anywhere in the head, "%00" in the request-target, or an obs-fold (a
+ *    header line starting with a space, RFC 9112 Sec. 5.2) is 400.
  *  - WebSocket frames (RFC 6455 Sec. 5.2): byte 0 (FIN, RSV, opcode), byte 1 (MASK, 7-bit length),
  *    the 16- or 64-bit extended length, the 4-byte masking key, then the payload, skipped. A
  *    frame whose MASK bit is clear is the verdict SRV_GUARD_UNMASKED, at its byte 1.
