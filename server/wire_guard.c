@@ -68,12 +68,11 @@ static void request_reset(srv_guard *g)
 /* The header named by g->name_hash is complete (its ':' read). */
 static void header_named(srv_guard *g)
 {
-    uint32_t h = g->name_hash, h_upgrade = srv_guard_hash("upgrade", 7),
-             h_cl = srv_guard_hash("content-length", 14),
-             h_te = srv_guard_hash("transfer-encoding", 17);
-    g->hdr = h == h_upgrade ? H_UPGRADE : h == h_cl ? H_CONTENT_LENGTH
-           : h == h_te      ? H_TRANSFER_ENCODING
-                            : H_OTHER;
+    uint32_t h = g->name_hash;
+    g->hdr = h == SRV_GUARD_HASH_UPGRADE          ? H_UPGRADE
+           : h == SRV_GUARD_HASH_CONTENT_LENGTH   ? H_CONTENT_LENGTH
+           : h == SRV_GUARD_HASH_TRANSFER_ENCODING ? H_TRANSFER_ENCODING
+                                                  : H_OTHER;
     g->match = 0;
     g->cl_now = 0;
     g->cl_state = 0;

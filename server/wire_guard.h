@@ -75,6 +75,11 @@ typedef struct srv_guard {
     uint64_t heads;      /* request heads completed */
 } srv_guard;
 
+/* srv_guard_hash of the names the parser reads (test_wire_guard.c checks them) */
+#define SRV_GUARD_HASH_UPGRADE 0xdc97cc77u
+#define SRV_GUARD_HASH_CONTENT_LENGTH 0x4df9451du
+#define SRV_GUARD_HASH_TRANSFER_ENCODING 0xddb4744cu
+
 /* FNV-1a over a lowercase name, as srv_guard_feed hashes header names. */
 uint32_t srv_guard_hash(const char *name, size_t len);
 

@@ -1636,6 +1636,18 @@ static double seconds_to_close_or(int fd, const char *text, int *code)
     size_t cap = 1 << 20, len = 0, at = 0; /* at: the next frame's header */
     unsigned char *b = malloc(cap);
     ASSERT(b);
+    /* what followed the text frame a previous call returned at, on the same connection */
+    static unsigned char *rest;
+    static size_t rest_len;
+    static int rest_fd = -1;
+    if (rest_fd == fd && rest_len <= cap) {
+        memcpy(b, rest, rest_len);
+        len = rest_len;
+    }
+    free(rest);
+    rest = NULL;
+    rest_len = 0;
+    rest_fd = -1;
     while (wsc_now_us() - t0 < 5000000) {
         for (;;) { /* the complete frames so far */
             size_t avail = len - at;
@@ -1662,6 +1674,11 @@ static double seconds_to_close_or(int fd, const char *text, int *code)
             if (text && (b[at] & 0x0f) == 1 && memmem(b + at + h, (size_t)n, text, strlen(text))) {
                 if (code)
                     *code = 0;
+                rest_len = len - (at + h + (size_t)n);
+                rest = malloc(rest_len + 1);
+                ASSERT(rest);
+                memcpy(rest, b + at + h + n, rest_len);
+                rest_fd = fd;
                 free(b);
                 return (double)(wsc_now_us() - t0) * 1e-6;
             }

@@ -211,6 +211,9 @@ int main(void)
     known[1] = srv_guard_hash("host", 4);
     known[2] = srv_guard_hash("upgrade", 7);
     qsort(known, 3, sizeof known[0], cmp);
+    ASSERT_INT_EQ(srv_guard_hash("Upgrade", 7), SRV_GUARD_HASH_UPGRADE);
+    ASSERT_INT_EQ(srv_guard_hash("content-length", 14), SRV_GUARD_HASH_CONTENT_LENGTH);
+    ASSERT_INT_EQ(srv_guard_hash("Transfer-Encoding", 17), SRV_GUARD_HASH_TRANSFER_ENCODING);
     test_heads();
     test_limits();
     test_frames();
