@@ -188,6 +188,8 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
         return srv_accept_guard(wsi);
     case LWS_CALLBACK_HTTP: {
         memset(r, 0, sizeof *r);
+        if (srv_guard_io_http(wsi)) /* an Upgrade lws did not take, with frames behind it */
+            return -1;
         char uri[HTTP_MAX_URI + 1];
         int ulen = lws_hdr_total_length(wsi, WSI_TOKEN_GET_URI);
         if (ulen <= 0) {

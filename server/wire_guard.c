@@ -54,6 +54,17 @@ int srv_guard_is_websocket(const srv_guard *g)
     return g->phase == PH_WS;
 }
 
+
+int srv_guard_not_upgraded(srv_guard *g)
+{
+    if (g->phase != PH_WS)
+        return 0;
+    if (g->ws_any || g->verdict)
+        return -1;
+    request_reset(g);
+    return 0;
+}
+
 static void request_reset(srv_guard *g)
 {
     g->phase = PH_START;
@@ -129,6 +140,7 @@ static int head_done(srv_guard *g)
     if (g->upgrade) {
         g->phase = PH_WS;
         g->ws_state = WS_B0;
+        g->ws_any = 0;
         return SRV_GUARD_PASS;
     }
     uint64_t body = g->cl;
@@ -212,6 +224,7 @@ static int head_byte(srv_guard *g, unsigned char c)
 /* One byte of a client frame header (RFC 6455 Sec. 5.2); returns a verdict or SRV_GUARD_PASS. */
 static int frame_byte(srv_guard *g, unsigned char c)
 {
+    g->ws_any = 1;
     switch (g->ws_state) {
     case WS_B0: /* FIN, RSV1-3, opcode: lws checks them */
         g->ws_state = WS_B1;

@@ -69,6 +69,7 @@ typedef struct srv_guard {
     uint8_t match;     /* "websocket" matched so far in an Upgrade value */
     uint8_t upgrade, chunked, bad, cl_seen, cl_state;
     uint8_t ws_state, ws_need; /* frame header: which part, bytes of it still due */
+    uint8_t ws_any;            /* a byte was read as a frame */
     uint32_t head_len, fields, name_hash;
     uint64_t cl, cl_now; /* Content-Length: the agreed value, the value being read */
     uint64_t remaining;  /* body or payload bytes still to skip; extended length being read */
@@ -91,5 +92,10 @@ size_t srv_guard_feed(srv_guard *g, const unsigned char *p, size_t n);
 
 /* Nonzero while g is reading WebSocket frames (after a head asking for the upgrade). */
 int srv_guard_is_websocket(const srv_guard *g);
+
+/* The head that asked for an upgrade was answered as a plain HTTP request after all: what follows
+ * is the next request. Returns -1 if bytes after that head were already read as frames (the
+ * connection must close: the guard and lws no longer agree where they are), else 0. */
+int srv_guard_not_upgraded(srv_guard *g);
 
 #endif

@@ -249,6 +249,14 @@ int srv_guard_io_answered(struct lws *wsi)
     return 1;
 }
 
+int srv_guard_io_http(struct lws *wsi)
+{
+    guard_slot *s = slot_of(wsi);
+    if (!s || !srv_guard_is_websocket(&s->g))
+        return 0;
+    return srv_guard_not_upgraded(&s->g);
+}
+
 int srv_guard_io_verdict(struct lws *wsi)
 {
     guard_slot *s = slot_of(wsi);

@@ -43,6 +43,11 @@ int srv_guard_io_open(struct lws *wsi);
  * request follows: answered here if lws holds no unsent output, else not), 0 to go on. */
 int srv_guard_io_answered(struct lws *wsi);
 
+/* lws hands wsi's request to http.c (LWS_CALLBACK_HTTP): if the guard took it for a WebSocket
+ * upgrade, it reads the next request instead. Returns -1 when the connection must close (it had
+ * already read bytes after that request as frames), else 0. */
+int srv_guard_io_http(struct lws *wsi);
+
 /* The verdict of wsi's connection (SRV_GUARD_*), 0 when none. */
 int srv_guard_io_verdict(struct lws *wsi);
 

@@ -132,6 +132,22 @@ static void test_frames(void)
     int v;
     feed(b, n, 0, 0, &v);
     ASSERT_INT_EQ(v, SRV_GUARD_PASS);
+    /* an upgrade lws answers as plain HTTP: the guard reads the next request as a request */
+    {
+        srv_guard g;
+        srv_guard_init(&g, &rules);
+        ASSERT_INT_EQ((long long)srv_guard_feed(&g, (const unsigned char *)upgrade, sizeof upgrade - 1),
+                      (long long)(sizeof upgrade - 1));
+        ASSERT(srv_guard_is_websocket(&g));
+        ASSERT_INT_EQ(srv_guard_not_upgraded(&g), 0);
+        const char next[] = "GET /%00 HTTP/1.1\r\n\r\n";
+        ASSERT_INT_EQ((long long)srv_guard_feed(&g, (const unsigned char *)next, sizeof next - 1), 7);
+        ASSERT_INT_EQ(g.verdict, SRV_GUARD_BAD_REQUEST);
+        srv_guard_init(&g, &rules); /* with a frame byte already read: the connection must go */
+        srv_guard_feed(&g, (const unsigned char *)upgrade, sizeof upgrade - 1);
+        srv_guard_feed(&g, (const unsigned char *)"\x81", 1);
+        ASSERT_INT_EQ(srv_guard_not_upgraded(&g), -1);
+    }
     free(b);
     printf("frames: 7/16/64-bit lengths skipped at every split, unmasked found at its byte 1\n");
 }
