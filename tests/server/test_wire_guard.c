@@ -58,7 +58,8 @@ static void expect(const unsigned char *p, size_t n, int verdict, size_t at)
 
 static void expect_str(const char *s, int verdict, const char *at)
 {
-    expect((const unsigned char *)s, strlen(s), verdict, at ? (size_t)(strstr(s, at) - s) : strlen(s));
+    size_t n = strlen(s);
+    expect((const unsigned char *)s, n, verdict, at ? (size_t)(strstr(s, at) - s) : n);
 }
 
 /* the verdict at the head's last LF */
@@ -69,7 +70,8 @@ static void expect_end(const char *s, int verdict)
 }
 
 static const char upgrade[] = "GET /stream HTTP/1.1\r\nHost: h\r\nUpgrade: WebSocket\r\n"
-                              "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                              "Connection: Upgrade\r\n"
+                              "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
                               "Sec-WebSocket-Version: 13\r\n\r\n";
 
 /* A masked client frame of opcode op and len payload bytes at b; returns its size. */
@@ -136,12 +138,14 @@ static void test_frames(void)
     {
         srv_guard g;
         srv_guard_init(&g, &rules);
-        ASSERT_INT_EQ((long long)srv_guard_feed(&g, (const unsigned char *)upgrade, sizeof upgrade - 1),
+        const unsigned char *u = (const unsigned char *)upgrade;
+        ASSERT_INT_EQ((long long)srv_guard_feed(&g, u, sizeof upgrade - 1),
                       (long long)(sizeof upgrade - 1));
         ASSERT(srv_guard_is_websocket(&g));
         ASSERT_INT_EQ(srv_guard_not_upgraded(&g), 0);
         const char next[] = "GET /%00 HTTP/1.1\r\n\r\n";
-        ASSERT_INT_EQ((long long)srv_guard_feed(&g, (const unsigned char *)next, sizeof next - 1), 7);
+        const unsigned char *x = (const unsigned char *)next;
+        ASSERT_INT_EQ((long long)srv_guard_feed(&g, x, sizeof next - 1), 7);
         ASSERT_INT_EQ(g.verdict, SRV_GUARD_BAD_REQUEST);
         srv_guard_init(&g, &rules); /* with a frame byte already read: the connection must go */
         srv_guard_feed(&g, (const unsigned char *)upgrade, sizeof upgrade - 1);
@@ -154,13 +158,16 @@ static void test_frames(void)
 
 static void test_heads(void)
 {
-    expect_str("GET /healthz HTTP/1.1\r\nHost: h\r\n\r\nGET / HTTP/1.1\r\n\r\n", SRV_GUARD_PASS, NULL);
-    expect_str("\r\nGET / HTTP/1.1\nHost: h\n\n", SRV_GUARD_PASS, NULL); /* bare LF, empty line first */
+    expect_str("GET /healthz HTTP/1.1\r\nHost: h\r\n\r\nGET / HTTP/1.1\r\n\r\n", SRV_GUARD_PASS,
+               NULL);
+    /* bare LF, an empty line first */
+    expect_str("\r\nGET / HTTP/1.1\nHost: h\n\n", SRV_GUARD_PASS, NULL);
     expect_str("GET /%00 HTTP/1.1\r\nHost: h\r\n\r\n", SRV_GUARD_BAD_REQUEST, "0 HTTP");
     expect_str("GET /a?x=1&y=%00 HTTP/1.1\r\n\r\n", SRV_GUARD_BAD_REQUEST, "0 HTTP");
     expect_str("GET /%2500 HTTP/1.1\r\n\r\n", SRV_GUARD_PASS, NULL); /* "%25" then "00" */
     expect_str("GET / HTTP/1.1\r\nX-A: %00\r\n\r\n", SRV_GUARD_PASS, NULL); /* only the target */
-    expect((const unsigned char *)"GET / HTTP/1.1\r\nX-A: a\0b\r\n\r\n", 28, SRV_GUARD_BAD_REQUEST, 22);
+    expect((const unsigned char *)"GET / HTTP/1.1\r\nX-A: a\0b\r\n\r\n", 28, SRV_GUARD_BAD_REQUEST,
+           22);
     expect_str("GET / HTTP/1.1\r\nX-A: a\r\n b\r\n\r\n", SRV_GUARD_BAD_REQUEST, " b\r\n\r\n");
     /* Content-Length: the body is skipped, even when it looks like a request */
     {
