@@ -13,8 +13,9 @@
 
 #define SRV_WS_PROTOCOL "meshsteer.v1" /* Sec-WebSocket-Protocol; optional for clients */
 #define SRV_REPLY_QUEUE 8
-/* HTTP request headers: lws parses into a buffer of SRV_HTTP_HEADER_BUFFER bytes (a request
- * larger than that is closed by lws unanswered); http.c answers 431 above SRV_HTTP_MAX_HEADERS. */
+/* HTTP request heads: the wire guard (wire_guard_io.h) answers 431 above SRV_HTTP_MAX_HEADERS
+ * bytes, before lws has them; lws parses what passes into a buffer of SRV_HTTP_HEADER_BUFFER
+ * bytes. */
 #define SRV_HTTP_HEADER_BUFFER (128 * 1024)
 #define SRV_HTTP_MAX_HEADERS 8192
 
@@ -59,6 +60,13 @@ struct srv_session {
 
 extern const struct lws_protocols srv_proto_stream;
 extern const struct lws_protocols srv_proto_http;
+/* lws accepted wsi's connection (LWS_CALLBACK_SERVER_NEW_CLIENT_INSTANTIATED, which lws 4.1 gives
+ * the vhost's default protocol, before it reads a byte): the wire guard takes its socket. 0, or
+ * -1 to refuse the connection. */
+int srv_accept_guard(struct lws *wsi);
+/* protocols[0]'s callback: lws's HTTP dummy, and srv_accept_guard */
+int srv_http_accept_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user,
+                             void *in, size_t len);
 
 /* 1 when the request carries the token (?token=T or "Authorization: Bearer T"), compared in
  * constant time; /stream, /healthz and /metrics require it when --token is set. */

@@ -6,25 +6,20 @@
  * (realpath). GET and HEAD (the same headers, no body); with --token, /healthz and /metrics
  * (which name the model path and source spec) need the token as /stream does.
  *
- * Request size (RFC 6585 Sec. 5, 431): lws 4.1 tells the callback neither how large the request
- * was nor its unknown headers, so the size is what lws has read from the socket for this request:
- * the connection's bytes received (TCP_INFO) less those still queued (SIOCINQ), less what earlier
- * requests on the connection took. Exact for a client that waits for each answer (browsers,
- * WebSocket clients before the 101); a client pipelining more than the limit ahead is counted
- * with the earlier request. */
+ * Request heads over SRV_HTTP_MAX_HEADERS bytes (431), over-long request-targets (414) and "%00"
+ * (400) are refused by the wire guard (wire_guard_io.h) before lws parses them; a response
+ * finished here tells it (srv_guard_io_answered), so that it answers a refused request pipelined
+ * behind this one in order. */
 #include "daemon.h"
 #include "log.h"
+#include "wire_guard_io.h"
 
 #include <cjson/cJSON.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include <limits.h>
-#include <linux/sockios.h>
-#include <linux/tcp.h>
 #include <stdio.h>
-#include <sys/ioctl.h>
-#include <sys/socket.h>
 #include <sys/stat.h>
 
 #define HTTP_CHUNK 65536
@@ -32,29 +27,12 @@
 
 #define HTTP_MAX_URI 255       /* no path of ours is longer */
 #define HTTP_MAX_QUERY 1024    /* ?token=... is the only query we read (256 bytes at most) */
-#define HTTP_STATUS_HEADERS_TOO_LARGE 431 /* RFC 6585; not in lws 4.1's enum */
 
 typedef struct http_req {
     char *body; /* LWS_PRE headroom before it */
     size_t len, sent;
     int head;   /* HEAD: headers only */
 } http_req;
-
-/* Bytes lws has read from wsi's connection so far (0 when the kernel cannot say). */
-static uint64_t bytes_consumed(struct lws *wsi)
-{
-    int fd = lws_get_socket_fd(wsi), queued = 0;
-    struct tcp_info ti;
-    socklen_t n = sizeof ti;
-    memset(&ti, 0, sizeof ti);
-    /* TCP_INFO first: bytes arriving between the two calls make the count smaller, not larger */
-    if (fd < 0 || getsockopt(fd, IPPROTO_TCP, TCP_INFO, &ti, &n) ||
-        n < offsetof(struct tcp_info, tcpi_bytes_received) + sizeof ti.tcpi_bytes_received ||
-        ioctl(fd, SIOCINQ, &queued))
-        return 0;
-    return ti.tcpi_bytes_received > (uint64_t)queued ? ti.tcpi_bytes_received - (uint64_t)queued
-                                                     : 0;
-}
 
 static char *healthz(srv_daemon *d)
 {
@@ -173,6 +151,32 @@ static unsigned int read_static(const srv_daemon *d, const char *uri, char **bod
     return HTTP_STATUS_OK;
 }
 
+/* A response is out: the next request on the connection, or its close when the wire guard refused
+ * the next one (it has answered it then, when it could). */
+static int transaction_done(struct lws *wsi)
+{
+    if (srv_guard_io_answered(wsi))
+        return -1;
+    return lws_http_transaction_completed(wsi) ? -1 : 0;
+}
+
+int srv_accept_guard(struct lws *wsi)
+{
+    if (!srv_guard_io_open(wsi))
+        return 0;
+    srv_log(SRV_LOG_WARN, "refused a connection: its socket number is beyond the wire guard's "
+                          "table (RLIMIT_NOFILE)");
+    return -1;
+}
+
+int srv_http_accept_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user,
+                             void *in, size_t len)
+{
+    if (reason == LWS_CALLBACK_SERVER_NEW_CLIENT_INSTANTIATED)
+        return srv_accept_guard(wsi);
+    return lws_callback_http_dummy(wsi, reason, user, in, len);
+}
+
 static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in,
                          size_t len)
 {
@@ -180,18 +184,12 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
     http_req *r = user;
     (void)in;
     switch (reason) {
+    case LWS_CALLBACK_SERVER_NEW_CLIENT_INSTANTIATED:
+        return srv_accept_guard(wsi);
     case LWS_CALLBACK_HTTP: {
-        /* what lws had read at the connection's previous request: kept in the wsi, which lives
-         * as long as the connection (the per-request data does not) */
-        uintptr_t before = (uintptr_t)lws_get_opaque_user_data(wsi);
-        uintptr_t now = (uintptr_t)bytes_consumed(wsi); /* modulo 2^32 on 32-bit: differences hold */
         memset(r, 0, sizeof *r);
-        lws_set_opaque_user_data(wsi, (void *)now);
-        if (now - before > SRV_HTTP_MAX_HEADERS && now - before < ((uintptr_t)1 << 31)) {
-            static const char msg[] = "request headers too large\n";
-            return respond(wsi, r, HTTP_STATUS_HEADERS_TOO_LARGE, "text/plain", msg,
-                           sizeof msg - 1);
-        }
+        if (srv_guard_io_http(wsi)) /* an Upgrade lws did not take, with frames behind it */
+            return -1;
         char uri[HTTP_MAX_URI + 1];
         int ulen = lws_hdr_total_length(wsi, WSI_TOKEN_GET_URI);
         if (ulen <= 0) {
@@ -211,7 +209,7 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
         }
         if (lws_hdr_copy(wsi, uri, sizeof uri, r->head ? WSI_TOKEN_HEAD_URI : WSI_TOKEN_GET_URI) !=
                 ulen ||
-            strlen(uri) != (size_t)ulen) { /* a %00 in the path */
+            strlen(uri) != (size_t)ulen) { /* a NUL in the path (the wire guard refuses them) */
             static const char msg[] = "bad request\n";
             return respond(wsi, r, HTTP_STATUS_BAD_REQUEST, "text/plain", msg, sizeof msg - 1);
         }
@@ -260,7 +258,7 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
         if (r->head) {
             free(r->body);
             r->body = NULL;
-            return lws_http_transaction_completed(wsi) ? -1 : 0;
+            return transaction_done(wsi);
         }
     {
         size_t n = r->len - r->sent > HTTP_CHUNK ? HTTP_CHUNK : r->len - r->sent;
@@ -278,7 +276,7 @@ static int callback_http(struct lws *wsi, enum lws_callback_reasons reason, void
     }
         free(r->body);
         r->body = NULL;
-        return lws_http_transaction_completed(wsi) ? -1 : 0;
+        return transaction_done(wsi);
     case LWS_CALLBACK_HTTP_DROP_PROTOCOL:
     case LWS_CALLBACK_CLOSED_HTTP:
         if (r) {

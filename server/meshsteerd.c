@@ -8,6 +8,7 @@
  * Signal handlers only set flags (STYLE.md Sec. 7); a 100 ms lws timer guarantees the loop looks
  * at them. */
 #include "daemon.h"
+#include "wire_guard_io.h"
 #include "log.h"
 #include "srv_err.h"
 
@@ -106,6 +107,14 @@ static void wake(void *ud)
     if (d->ctx)
         lws_cancel_service(d->ctx);
     srv_publisher_notify(d->pub);
+}
+
+/* the wire guard found a session to close (an unmasked frame): proto_stream.c closes it */
+static void guard_wake(void *ud)
+{
+    srv_daemon *d = ud;
+    if (d->ctx)
+        lws_cancel_service(d->ctx);
 }
 
 static void tick(lws_sorted_usec_list_t *sul);
@@ -352,7 +361,8 @@ int main(int argc, char **argv)
     static const struct lws_protocol_vhost_options pvo = {NULL, &pvo_default, SRV_WS_PROTOCOL, ""};
     /* every HTTP path is a callback mount bound to srv_proto_http by name (http.c) */
     const struct lws_protocols protocols[] = {
-        {"http", lws_callback_http_dummy, 0, 0, 0, NULL, 0}, srv_proto_http, srv_proto_stream, {0}};
+        {"http", srv_http_accept_callback, 0, 0, 0, NULL, 0}, srv_proto_http, srv_proto_stream,
+        {0}};
     struct lws_http_mount m_metrics = {
         .mountpoint = "/metrics", .origin = "meshsteer-http", .origin_protocol = LWSMPRO_CALLBACK,
         .mountpoint_len = 8};
@@ -386,6 +396,12 @@ int main(int argc, char **argv)
      * http.c answer 431 up to it (SRV_HTTP_HEADER_BUFFER, daemon.h) */
     info.max_http_header_data = 0;
     info.max_http_header_data2 = SRV_HTTP_HEADER_BUFFER;
+    /* every byte a client sends passes the wire guard before lws parses it (wire_guard_io.h) */
+    if (srv_guard_io_start(SRV_HTTP_MAX_HEADERS, guard_wake, &d, err)) {
+        srv_log(SRV_LOG_ERROR, "%s", err);
+        srv_pipeline_destroy(d.pipe);
+        return 1;
+    }
     d.ctx = lws_create_context(&info);
     if (!d.ctx) {
         srv_log(SRV_LOG_ERROR, "cannot listen on %s%s%s:%d", listen_v6 ? "[" : "", listen_addr,
@@ -464,6 +480,7 @@ int main(int argc, char **argv)
     d.pub = NULL;
     lws_sul_cancel(&tick_sul);
     lws_context_destroy(d.ctx);
+    srv_guard_io_stop();
     d.ctx = NULL;
     srv_pipeline_destroy(d.pipe);
     srv_log(SRV_LOG_NOTICE, "stopped");

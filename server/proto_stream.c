@@ -14,6 +14,8 @@
 #include "control.h"
 #include "daemon.h"
 #include "log.h"
+#include "wire_guard.h"
+#include "wire_guard_io.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -334,6 +336,8 @@ static void wake_sessions(srv_daemon *d)
     srv_frame *f = srv_pipeline_latest(d->pipe);
     uint64_t now = srv_now_us();
     for (srv_session *s = d->sessions; s; s = s->next) {
+        if (srv_guard_io_verdict(s->wsi)) /* closed in its WRITEABLE callback */
+            lws_callback_on_writable(s->wsi);
         if (f && f->gen == s->gen)
             account_skips(d, s, f->seq);
         if (d->draining || (f && (f->seq > s->last_seq || f->gen != s->gen))) {
@@ -359,6 +363,9 @@ static int callback_stream(struct lws *wsi, enum lws_callback_reasons reason, vo
     srv_daemon *d = daemon_of(wsi);
     srv_session *s = user;
     switch (reason) {
+    case LWS_CALLBACK_SERVER_NEW_CLIENT_INSTANTIATED: /* lws 4.1 gives it the default protocol */
+        return srv_accept_guard(wsi);
+
     case LWS_CALLBACK_FILTER_PROTOCOL_CONNECTION:
         return filter(d, wsi);
 
@@ -452,6 +459,17 @@ static int callback_stream(struct lws *wsi, enum lws_callback_reasons reason, vo
     case LWS_CALLBACK_SERVER_WRITEABLE:
         if (!s->wsi)
             return 0;
+        if (srv_guard_io_verdict(wsi) == SRV_GUARD_UNMASKED) {
+            /* RFC 6455 Sec. 5.1: a server MUST close on an unmasked client frame; Sec. 7.4.1:
+             * 1002, protocol error */
+            static const char why[] = "client frame not masked";
+            srv_log(SRV_LOG_INFO, "client %llu closed: a frame without the mask bit",
+                    (unsigned long long)s->tag);
+            srv_guard_io_closing(wsi);
+            lws_close_reason(wsi, LWS_CLOSE_STATUS_PROTOCOL_ERR, (unsigned char *)why,
+                             sizeof why - 1);
+            return -1;
+        }
         if (d->draining) {
             static const char why[] = "server shutting down";
             lws_close_reason(wsi, LWS_CLOSE_STATUS_GOINGAWAY, (unsigned char *)why, sizeof why - 1);

@@ -70,6 +70,7 @@ seeds_of() {
     daemon_config) local_seeds=(tests/server/data/meshsteerd.conf server/meshsteerd.conf.example) ;;
     labels) local_seeds=(tests/server/data/labels_*.txt) ;;
     wsframe) local_seeds=(tests/server/data/ws_stream.bin) ;;
+    wire_guard) local_seeds=(tests/server/data/guard_upgrade.bin tests/server/data/guard_requests.bin) ;;
     osc_capture) local_seeds=(recordings/example-trot.osc) ;;
     params) local_seeds=(tests/server/data/params_model.bin) ;;
     esac
