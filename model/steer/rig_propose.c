@@ -1,0 +1,653 @@
+/* rig_propose.c - a rig proposed from the mesh alone (issue 12, "A rig without counting
+ * vertices"): markers, reference edge and limbs of DESIGN.md "The rig file" for a human or a
+ * quadruped, from one pose of the mesh and its up axis.
+ *
+ * Everything is measured on the surface graph (core/meshgraph.c: Dijkstra along mesh edges, the
+ * same idea the depth tracker uses on its depth grid), because geodesic distance barely changes
+ * when a body moves its limbs: what is found in one frame is found, give or take a neighbouring
+ * vertex, in every other frame of the sequence.
+ *
+ *   1. Centre c: the vertex of the largest connected part nearest the centroid of that part.
+ *      D_c = geodesic distance from c; R = max D_c.
+ *   2. Extremities by farthest-point sampling: e_1 = argmax D_c, e_{k+1} = argmax_v
+ *      min(D_c(v), D_e1(v), .., D_ek(v)); stop when that distance falls below 0.2 R. A point
+ *      counts only if it is also a local maximum of D_c within a geodesic radius of 0.1 R (a tip
+ *      of the body, not a point on a flank half-way between two tips).
+ *   3. Human (5 tips): head = the tip nearest c (the trunk is shorter than any limb); feet = the
+ *      two tips farthest from the head; hands = the other two.
+ *      Quadruped (6 tips): hooves = the four lowest tips along up; front hooves = the pair nearer
+ *      the muzzle end; muzzle vs tail: the end whose cross-section (the ring of vertices at
+ *      geodesic distance 0.15 L..0.2 L from the tip, L = D_c(tip)) is the wider.
+ *   4. Forward f (unit, perpendicular to up): human: the toes. Per foot, the leg's axis a runs
+ *      from the centroid of the ring at 0.25 L..0.3 L from the tip (ankle) to that of the ring at
+ *      0.4 L..0.45 L (shin); the tip's offset from that axis points where the foot points.
+ *      Quadruped: from the hind legs' roots to the front legs' roots (rings at 0.7 L..0.75 L).
+ *      Assumption: people face where their toes point; the head is the thicker end of a quadruped.
+ *      left = up x f (right-handed, so a person facing +X with Y up has her left at -Z).
+ *   5. Sides: of a pair of tips, the one whose limb root (the ring at 0.7 L..0.75 L from the tip:
+ *      upper arm, thigh, shoulder, hip) lies further along `left` is the left one; so crossed
+ *      hands or feet do not swap.
+ *   6. Trunk markers. Human: the mid-line is where the geodesic distances to the two hands differ
+ *      as they do at the head (|dh(v) - dh(head)| <= w), and likewise for the feet, with
+ *      w = max(0.02 R, 2 x mean edge length). neck = the front-most (along f) mid-line vertex
+ *      whose summed distance to the hands is within 0.05 R of its minimum on the mid-line (the
+ *      base of the neck, where the hand-to-hand path crosses); pelvis = the front-most mid-line
+ *      vertex whose distances to the head and to the feet differ least (within 0.02 R: halfway
+ *      between head and feet, on the belly). Quadruped: withers / croup = the highest vertex
+ *      (along up) of the slab, 0.03 R thick across f, through the front / hind legs' roots.
+ *   7. Checks (a wrong --up, a mesh without the body's tips): fewer tips than the body needs; a
+ *      human whose feet are not below the head by at least a third of the head-foot geodesic
+ *      distance; a quadruped whose withers and croup are not above its hooves by a third of a
+ *      leg; a forward direction parallel to up.
+ *
+ * Body "auto": a quadruped stands on four tips, a person on two: the fourth-lowest of the first
+ * six tips lies within 0.3 of the body's height above the lowest vertex -> quadruped.
+ *
+ * Names and sources: a human gets head, lhand, rhand, lfoot, rfoot (sources as the depth
+ * tracker publishes them), pelvis and neck; reference pelvis -> neck; limbs neck-head, neck-hands,
+ * pelvis-feet (rigs/samba-7.json). A quadruped gets withers, croup, lf/rf/lh/rh_hoof, muzzle,
+ * tail; reference croup -> withers; limbs as rigs/horse.json.
+ *
+ * Training-time only: allocates (one distance field per tip, about 15 fields of nv doubles). */
+#include "model.h"
+#include "core/meshgraph.h"
+#include "core/util.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_TIPS 8
+/* a tip may have points of D_c higher by this much (per R) within 0.1 R: a cut-off end (a
+ * scan without its head) is a flat cap whose far rim is a little farther than its middle */
+#define TIP_TOL 0.03
+/* the neck: its band of geodesic distance from the head, per head-to-pelvis distance */
+#define NECK_LO 0.30
+#define NECK_HI 0.36
+
+typedef struct prop {
+    const float *V;
+    int nv;
+    mdl_graph g;
+    uint8_t *part; /* the largest connected part */
+    double up[3];
+    double R;      /* max geodesic distance from the centre */
+    double edge;   /* mean edge length */
+} prop;
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static double vdot(const prop *p, int v, const double d[3])
+{
+    const float *x = p->V + 3 * (size_t)v;
+    return x[0] * d[0] + x[1] * d[1] + x[2] * d[2];
+}
+
+static int normalise(double a[3])
+{
+    double n = sqrt(dot3(a, a));
+    if (!(n > 1e-12))
+        return -1;
+    for (int k = 0; k < 3; k++)
+        a[k] /= n;
+    return 0;
+}
+
+/* Removes the component along up (unit). */
+static void flatten(const prop *p, double a[3])
+{
+    double u = dot3(a, p->up);
+    for (int k = 0; k < 3; k++)
+        a[k] -= u * p->up[k];
+}
+
+/* Centroid of the part's vertices with lo <= D < hi; -1 when there are none. */
+static int ring_centroid(const prop *p, const double *D, double lo, double hi, double c[3])
+{
+    double n = 0;
+    c[0] = c[1] = c[2] = 0;
+    for (int v = 0; v < p->nv; v++)
+        if (p->part[v] && D[v] >= lo && D[v] < hi) {
+            for (int k = 0; k < 3; k++)
+                c[k] += p->V[3 * (size_t)v + k];
+            n++;
+        }
+    if (n == 0)
+        return -1;
+    for (int k = 0; k < 3; k++)
+        c[k] /= n;
+    return 0;
+}
+
+/* Mean distance of the ring's vertices from its centroid (the limb's cross-section radius). */
+static double ring_radius(const prop *p, const double *D, double lo, double hi)
+{
+    double c[3], s = 0, n = 0;
+    if (ring_centroid(p, D, lo, hi, c))
+        return 0;
+    for (int v = 0; v < p->nv; v++)
+        if (p->part[v] && D[v] >= lo && D[v] < hi) {
+            const float *x = p->V + 3 * (size_t)v;
+            double d[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]};
+            s += sqrt(dot3(d, d));
+            n++;
+        }
+    return n > 0 ? s / n : 0;
+}
+
+/* Marks the largest connected part of the graph (breadth first). */
+static int largest_part(prop *p, char *err)
+{
+    int nv = p->nv, *label = malloc((size_t)nv * sizeof *label),
+        *queue = malloc((size_t)nv * sizeof *queue);
+    p->part = calloc((size_t)nv, 1);
+    if (!label || !queue || !p->part) {
+        free(label);
+        free(queue);
+        return mdl__err(err, -ENOMEM, "rig: out of memory");
+    }
+    for (int v = 0; v < nv; v++)
+        label[v] = -1;
+    int best = -1, best_n = 0, nl = 0;
+    for (int s = 0; s < nv; s++) {
+        if (label[s] >= 0 || p->g.off[s] == p->g.off[s + 1])
+            continue; /* labelled, or a vertex no face uses */
+        int head = 0, tail = 0;
+        queue[tail++] = s;
+        label[s] = nl;
+        while (head < tail) {
+            int v = queue[head++];
+            for (int i = p->g.off[v]; i < p->g.off[v + 1]; i++) {
+                int u = p->g.nbr[i];
+                if (label[u] < 0) {
+                    label[u] = nl;
+                    queue[tail++] = u;
+                }
+            }
+        }
+        if (tail > best_n) {
+            best_n = tail;
+            best = nl;
+        }
+        nl++;
+    }
+    for (int v = 0; v < nv; v++)
+        p->part[v] = best >= 0 && label[v] == best;
+    free(label);
+    free(queue);
+    if (best_n < 4)
+        return mdl__err(err, -EINVAL, "rig: the mesh has no faces to measure along");
+    return 0;
+}
+
+static int geodesic(const prop *p, int src, double *D, char *err)
+{
+    return mdl__geodesic(&p->g, p->V, &src, 1, p->part, D, err);
+}
+
+/* The extremities (step 2): tips[] in farthest-point order; returns how many. */
+static int find_tips(const prop *p, int centre, const double *Dc, double *near, double *Dt,
+                     int *tips, char *err)
+{
+    int n = 0, e;
+    memcpy(near, Dc, (size_t)p->nv * sizeof *near);
+    for (int it = 0; it < 4 * MAX_TIPS && n < MAX_TIPS; it++) {
+        int best = -1;
+        for (int v = 0; v < p->nv; v++)
+            if (p->part[v] && isfinite(near[v]) && (best < 0 || near[v] > near[best]))
+                best = v;
+        if (best < 0 || near[best] < 0.2 * p->R)
+            break;
+        if ((e = geodesic(p, best, Dt, err)) != 0)
+            return e;
+        double ball = -INFINITY; /* the highest D_c within 0.1 R of the candidate */
+        for (int v = 0; v < p->nv; v++)
+            if (p->part[v] && Dt[v] < 0.1 * p->R && Dc[v] > ball)
+                ball = Dc[v];
+        int local_max = ball <= Dc[best] + TIP_TOL * p->R;
+        if (getenv("RIG_DEBUG"))
+            fprintf(stderr, "fps %d near %.3f Dc %.3f R %.3f local %d\n", best, near[best], Dc[best], p->R, local_max);
+        if (local_max)
+            tips[n++] = best;
+        for (int v = 0; v < p->nv; v++)
+            if (Dt[v] < near[v])
+                near[v] = Dt[v];
+    }
+    (void)centre;
+    return n;
+}
+
+/* Root of the limb ending at `tip` (field D of that tip, length L): the ring at 0.5..0.55 L (elbow,
+ * knee, hock: still on the limb, where a ring further up would wrap the trunk). */
+static int limb_root(const prop *p, const double *D, double L, double c[3])
+{
+    return ring_centroid(p, D, 0.5 * L, 0.55 * L, c);
+}
+
+/* Orders the pair (a, b) as (left, right) by their limbs' roots. */
+static void side_pair(const prop *p, const double left[3], const double *Da, const double *Db,
+                      double La, double Lb, int *a, int *b, double *Da_out)
+{
+    double ra[3], rb[3];
+    int ea = limb_root(p, Da, La, ra), eb = limb_root(p, Db, Lb, rb);
+    double sa = ea ? vdot(p, *a, left) : dot3(ra, left), sb = eb ? vdot(p, *b, left) : dot3(rb, left);
+    if (sa < sb) {
+        int t = *a;
+        *a = *b;
+        *b = t;
+    }
+    (void)Da_out;
+}
+
+static int set_marker(mdl_rig *r, int i, const char *name, const char *source, int vertex)
+{
+    mdl_rig_marker *m = &r->markers[i];
+    snprintf(m->name, sizeof m->name, "%s", name);
+    snprintf(m->source, sizeof m->source, "%s", source ? source : name);
+    m->vertex = vertex;
+    return 0;
+}
+
+/* A rig of nm markers (names/sources/vertices), reference (2 indices) and two-marker limbs. */
+static int make_rig(mdl_rig **out, int nm, const char *const *names, const char *const *sources,
+                    const int *vertex, int ref0, int ref1, int nl, const int (*limbs)[2], char *err)
+{
+    mdl_rig *r = calloc(1, sizeof *r);
+    if (!r)
+        return mdl__err(err, -ENOMEM, "rig: out of memory");
+    r->markers = calloc((size_t)nm, sizeof *r->markers);
+    r->limb_off = calloc((size_t)nl + 1, sizeof *r->limb_off);
+    r->limb_idx = calloc(2 * (size_t)nl, sizeof *r->limb_idx);
+    if (!r->markers || !r->limb_off || !r->limb_idx) {
+        mdl_rig_destroy(r);
+        return mdl__err(err, -ENOMEM, "rig: out of memory");
+    }
+    r->nmarkers = nm;
+    for (int i = 0; i < nm; i++)
+        set_marker(r, i, names[i], sources ? sources[i] : NULL, vertex[i]);
+    r->nref = 2;
+    r->ref[0] = ref0;
+    r->ref[1] = ref1;
+    r->nlimbs = nl;
+    for (int l = 0; l < nl; l++) {
+        r->limb_off[l + 1] = 2 * (l + 1);
+        r->limb_idx[2 * l] = limbs[l][0];
+        r->limb_idx[2 * l + 1] = limbs[l][1];
+    }
+    *out = r;
+    return 0;
+}
+
+/* Front-most (along f) vertex among those with sel[v]; -1 if none. */
+static int front_most(const prop *p, const uint8_t *sel, const double f[3])
+{
+    int best = -1;
+    double bd = -INFINITY;
+    for (int v = 0; v < p->nv; v++)
+        if (sel[v]) {
+            double d = vdot(p, v, f);
+            if (d > bd) {
+                bd = d;
+                best = v;
+            }
+        }
+    return best;
+}
+
+typedef struct work {
+    double *Dc, *near, *Dt[MAX_TIPS], *tmp;
+    uint8_t *sel;
+} work;
+
+static int propose_human(prop *p, work *w, const int *tips, int ntips, mdl_rig **out,
+                         mdl_rig_proposal *info, char *err)
+{
+    int e, nt = 5;
+    (void)ntips;
+    /* head: nearest the centre */
+    int h = 0;
+    for (int i = 1; i < nt; i++)
+        if (w->Dc[tips[i]] < w->Dc[tips[h]])
+            h = i;
+    /* feet: the two farthest from the head */
+    int rest[4], nr = 0;
+    for (int i = 0; i < nt; i++)
+        if (i != h)
+            rest[nr++] = i;
+    const double *Dh = w->Dt[h];
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++)
+            if (Dh[tips[rest[j]]] > Dh[tips[rest[i]]]) {
+                int t = rest[i];
+                rest[i] = rest[j];
+                rest[j] = t;
+            }
+    int f0 = rest[0], f1 = rest[1], h0 = rest[2], h1 = rest[3];
+    /* forward from the toes (step 4) */
+    double fwd[3] = {0, 0, 0};
+    for (int k = 0; k < 2; k++) {
+        int fi = k ? f1 : f0, t = tips[fi];
+        double L = w->Dc[t], c1[3], c2[3];
+        if (ring_centroid(p, w->Dt[fi], 0.25 * L, 0.3 * L, c1) ||
+            ring_centroid(p, w->Dt[fi], 0.4 * L, 0.45 * L, c2))
+            continue;
+        double a[3] = {c2[0] - c1[0], c2[1] - c1[1], c2[2] - c1[2]};
+        if (normalise(a))
+            continue;
+        const float *x = p->V + 3 * (size_t)t;
+        double o[3] = {x[0] - c1[0], x[1] - c1[1], x[2] - c1[2]};
+        double oa = dot3(o, a);
+        for (int q = 0; q < 3; q++)
+            fwd[q] += o[q] - oa * a[q];
+    }
+    flatten(p, fwd);
+    if (normalise(fwd))
+        return mdl__err(err, -EINVAL, "rig: cannot tell which way the feet point (is --up right?)");
+    double left[3] = {p->up[1] * fwd[2] - p->up[2] * fwd[1], p->up[2] * fwd[0] - p->up[0] * fwd[2],
+                      p->up[0] * fwd[1] - p->up[1] * fwd[0]};
+    /* the head must be above the feet */
+    double fh = 0.5 * (vdot(p, tips[f0], p->up) + vdot(p, tips[f1], p->up));
+    double need = (Dh[tips[f0]] + Dh[tips[f1]]) / 6;
+    if (vdot(p, tips[h], p->up) - fh < need)
+        return mdl__err(err, -EINVAL,
+                        "rig: the head (vertex %d) is not above the feet (vertices %d, %d) along "
+                        "the up axis by a third of their geodesic distance (%.3g < %.3g): the body "
+                        "lies down in this frame, or --up is wrong",
+                        tips[h], tips[f0], tips[f1], vdot(p, tips[h], p->up) - fh, need);
+    /* sides (step 5) */
+    int lf = tips[f0], rf = tips[f1], lh = tips[h0], rh = tips[h1];
+    const double *Dlf = w->Dt[f0], *Drf = w->Dt[f1], *Dlh = w->Dt[h0], *Drh = w->Dt[h1];
+    {
+        int a = f0, b = f1;
+        side_pair(p, left, w->Dt[f0], w->Dt[f1], w->Dc[lf], w->Dc[rf], &a, &b, NULL);
+        if (a != f0) {
+            lf = tips[f1], rf = tips[f0];
+            Dlf = w->Dt[f1], Drf = w->Dt[f0];
+        }
+        a = h0, b = h1;
+        side_pair(p, left, w->Dt[h0], w->Dt[h1], w->Dc[lh], w->Dc[rh], &a, &b, NULL);
+        if (a != h0) {
+            lh = tips[h1], rh = tips[h0];
+            Dlh = w->Dt[h1], Drh = w->Dt[h0];
+        }
+    }
+    /* the mid-line and the trunk markers (step 6) */
+    int head = tips[h];
+    double wid = fmax(0.02 * p->R, 2 * p->edge);
+    double dh0 = Dlh[head] - Drh[head], df0 = Dlf[head] - Drf[head];
+    /* pelvis: on the feet's mid-line, half-way between the head and the feet, front-most */
+    double dmin = INFINITY;
+    for (int v = 0; v < p->nv; v++) {
+        int mid = p->part[v] && fabs(Dlf[v] - Drf[v] - df0) <= wid;
+        w->tmp[v] = mid ? fabs(Dh[v] - 0.5 * (Dlf[v] + Drf[v])) : INFINITY;
+        if (w->tmp[v] < dmin)
+            dmin = w->tmp[v];
+    }
+    for (int v = 0; v < p->nv; v++)
+        w->sel[v] = w->tmp[v] <= dmin + 0.02 * p->R;
+    int pelvis = front_most(p, w->sel, fwd);
+    if (pelvis < 0)
+        return mdl__err(err, -EINVAL, "rig: found no pelvis on the mid-line between the feet");
+    /* neck: on the hands' mid-line, about a third of the way from the head to the pelvis */
+    double dp = Dh[pelvis];
+    for (int v = 0; v < p->nv; v++)
+        w->sel[v] = p->part[v] && fabs(Dlh[v] - Drh[v] - dh0) <= wid &&
+                    Dh[v] >= NECK_LO * dp && Dh[v] <= NECK_HI * dp;
+    int neck = front_most(p, w->sel, fwd);
+    if (neck < 0 || pelvis < 0)
+        return mdl__err(err, -EINVAL, "rig: found no neck or pelvis on the mid-line");
+    static const char *const names[] = {"head", "lhand", "rhand", "lfoot", "rfoot", "pelvis", "neck"};
+    static const int limbs[][2] = {{6, 0}, {6, 1}, {6, 2}, {5, 3}, {5, 4}};
+    int vert[7] = {head, lh, rh, lf, rf, pelvis, neck};
+    if ((e = make_rig(out, 7, names, NULL, vert, 5, 6, 5, limbs, err)) != 0)
+        return e;
+    for (int q = 0; q < 3; q++) {
+        info->forward[q] = (float)fwd[q];
+        info->left[q] = (float)left[q];
+    }
+    return 0;
+}
+
+static int propose_quadruped(prop *p, work *w, const int *tips, int ntips, mdl_rig **out,
+                             mdl_rig_proposal *info, char *err)
+{
+    int e, nt = 6;
+    (void)ntips;
+    int ord[6];
+    for (int i = 0; i < nt; i++)
+        ord[i] = i;
+    for (int i = 0; i < nt; i++) /* by height, lowest first */
+        for (int j = i + 1; j < nt; j++)
+            if (vdot(p, tips[ord[j]], p->up) < vdot(p, tips[ord[i]], p->up)) {
+                int t = ord[i];
+                ord[i] = ord[j];
+                ord[j] = t;
+            }
+    int hoof[4] = {ord[0], ord[1], ord[2], ord[3]}, end[2] = {ord[4], ord[5]};
+    /* muzzle: the wider end */
+    double rad[2];
+    for (int k = 0; k < 2; k++) {
+        double L = w->Dc[tips[end[k]]];
+        rad[k] = ring_radius(p, w->Dt[end[k]], 0.15 * L, 0.2 * L);
+    }
+    int mi = rad[0] >= rad[1] ? end[0] : end[1], ti = rad[0] >= rad[1] ? end[1] : end[0];
+    /* front hooves: the two nearer the muzzle */
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++)
+            if (w->Dt[mi][tips[hoof[j]]] < w->Dt[mi][tips[hoof[i]]]) {
+                int t = hoof[i];
+                hoof[i] = hoof[j];
+                hoof[j] = t;
+            }
+    double root[4][3];
+    for (int i = 0; i < 4; i++)
+        if (limb_root(p, w->Dt[hoof[i]], w->Dc[tips[hoof[i]]], root[i]))
+            for (int q = 0; q < 3; q++)
+                root[i][q] = p->V[3 * (size_t)tips[hoof[i]] + q];
+    double front[3], hind[3], fwd[3];
+    for (int q = 0; q < 3; q++) {
+        front[q] = 0.5 * (root[0][q] + root[1][q]);
+        hind[q] = 0.5 * (root[2][q] + root[3][q]);
+        fwd[q] = front[q] - hind[q];
+    }
+    flatten(p, fwd);
+    if (normalise(fwd))
+        return mdl__err(err, -EINVAL, "rig: the front and hind legs are not apart across the up "
+                                      "axis (is --up right?)");
+    double left[3] = {p->up[1] * fwd[2] - p->up[2] * fwd[1], p->up[2] * fwd[0] - p->up[0] * fwd[2],
+                      p->up[0] * fwd[1] - p->up[1] * fwd[0]};
+    int idx[4];
+    for (int pr = 0; pr < 2; pr++) { /* sides: root further along left is left */
+        int a = 2 * pr, b = 2 * pr + 1;
+        if (dot3(root[a], left) >= dot3(root[b], left)) {
+            idx[2 * pr] = tips[hoof[a]];
+            idx[2 * pr + 1] = tips[hoof[b]];
+        } else {
+            idx[2 * pr] = tips[hoof[b]];
+            idx[2 * pr + 1] = tips[hoof[a]];
+        }
+    }
+    /* withers and croup: the highest vertex of the slab through the legs' roots */
+    int top[2] = {-1, -1};
+    for (int k = 0; k < 2; k++) {
+        double s = dot3(k ? hind : front, fwd), best = -INFINITY;
+        for (int v = 0; v < p->nv; v++)
+            if (p->part[v] && fabs(vdot(p, v, fwd) - s) <= 0.015 * p->R) {
+                double hgt = vdot(p, v, p->up);
+                if (hgt > best) {
+                    best = hgt;
+                    top[k] = v;
+                }
+            }
+        if (top[k] < 0)
+            return mdl__err(err, -EINVAL, "rig: found no back above the %s legs",
+                            k ? "hind" : "front");
+    }
+    double hoofh = 0;
+    for (int i = 0; i < 4; i++)
+        hoofh += vdot(p, idx[i], p->up) / 4;
+    double leg = 0;
+    for (int i = 0; i < 4; i++)
+        leg += w->Dc[idx[i]] / 4;
+    for (int k = 0; k < 2; k++)
+        if (vdot(p, top[k], p->up) - hoofh < leg / 3)
+            return mdl__err(err, -EINVAL,
+                            "rig: the %s (vertex %d) is not above the hooves along the up axis by "
+                            "a third of a leg (%.3g < %.3g): the body lies down in this frame, or "
+                            "--up is wrong",
+                            k ? "croup" : "withers", top[k], vdot(p, top[k], p->up) - hoofh, leg / 3);
+    static const char *const names[] = {"withers", "croup", "lf_hoof", "rf_hoof",
+                                        "lh_hoof", "rh_hoof", "muzzle",  "tail"};
+    static const int limbs[][2] = {{0, 2}, {0, 3}, {1, 4}, {1, 5}, {0, 6}, {1, 7}};
+    int vert[8] = {top[0], top[1], idx[0], idx[1], idx[2], idx[3], tips[mi], tips[ti]};
+    if ((e = make_rig(out, 8, names, NULL, vert, 1, 0, 6, limbs, err)) != 0)
+        return e;
+    for (int q = 0; q < 3; q++) {
+        info->forward[q] = (float)fwd[q];
+        info->left[q] = (float)left[q];
+    }
+    return 0;
+}
+
+int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const float up[3], int body,
+                    mdl_rig **out, mdl_rig_proposal *info, char *err)
+{
+    *out = NULL;
+    mdl_rig_proposal dummy;
+    if (!info)
+        info = &dummy;
+    memset(info, 0, sizeof *info);
+    if (nv < 4 || nf < 2)
+        return mdl__err(err, -EINVAL, "rig: the mesh has %d vertices and %d faces", nv, nf);
+    if (body != MDL_BODY_AUTO && body != MDL_BODY_HUMAN && body != MDL_BODY_QUADRUPED)
+        return mdl__err(err, -EINVAL, "rig: unknown body %d", body);
+    for (int f = 0; f < 3 * nf; f++)
+        if (F[f] >= (uint32_t)nv)
+            return mdl__err(err, -EINVAL, "rig: face %d uses vertex %u of %d", f / 3, F[f], nv);
+    prop p = {.V = V, .nv = nv};
+    for (int k = 0; k < 3; k++)
+        p.up[k] = up[k];
+    if (normalise(p.up))
+        return mdl__err(err, -EINVAL, "rig: the up axis is zero");
+    work w;
+    memset(&w, 0, sizeof w);
+    int e = mdl__graph_init(&p.g, nv, F, nf, err);
+    if (e)
+        return e;
+    if ((e = largest_part(&p, err)) != 0)
+        goto done;
+    w.Dc = malloc((size_t)nv * sizeof(double));
+    w.near = malloc((size_t)nv * sizeof(double));
+    w.tmp = malloc((size_t)nv * sizeof(double));
+    w.sel = calloc((size_t)nv, 1);
+    for (int i = 0; i < MAX_TIPS; i++)
+        w.Dt[i] = malloc((size_t)nv * sizeof(double));
+    int ok = w.Dc && w.near && w.tmp && w.sel;
+    for (int i = 0; i < MAX_TIPS; i++)
+        ok = ok && w.Dt[i];
+    if (!ok) {
+        e = mdl__err(err, -ENOMEM, "rig: out of memory");
+        goto done;
+    }
+    /* step 1: the centre */
+    double c[3] = {0, 0, 0}, n = 0, el = 0, ne = 0;
+    for (int v = 0; v < nv; v++)
+        if (p.part[v]) {
+            for (int k = 0; k < 3; k++)
+                c[k] += V[3 * (size_t)v + k];
+            n++;
+            for (int i = p.g.off[v]; i < p.g.off[v + 1]; i++) {
+                const float *a = V + 3 * (size_t)v, *b = V + 3 * (size_t)p.g.nbr[i];
+                double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+                el += sqrt(dot3(d, d));
+                ne++;
+            }
+        }
+    for (int k = 0; k < 3; k++)
+        c[k] /= n;
+    p.edge = ne > 0 ? el / ne : 0;
+    int centre = -1;
+    double bd = INFINITY;
+    for (int v = 0; v < nv; v++)
+        if (p.part[v]) {
+            const float *x = V + 3 * (size_t)v;
+            double d[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]}, dd = dot3(d, d);
+            if (dd < bd) {
+                bd = dd;
+                centre = v;
+            }
+        }
+    if ((e = geodesic(&p, centre, w.Dc, err)) != 0)
+        goto done;
+    p.R = 0;
+    for (int v = 0; v < nv; v++)
+        if (p.part[v] && isfinite(w.Dc[v]) && w.Dc[v] > p.R)
+            p.R = w.Dc[v];
+    if (!(p.R > 0)) {
+        e = mdl__err(err, -EINVAL, "rig: the mesh has no extent");
+        goto done;
+    }
+    /* step 2: the tips */
+    int tips[MAX_TIPS];
+    int ntips = find_tips(&p, centre, w.Dc, w.near, w.tmp, tips, err);
+    if (ntips < 0) {
+        e = ntips;
+        goto done;
+    }
+    info->centre = centre;
+    info->ntips = ntips;
+    memcpy(info->tips, tips, (size_t)ntips * sizeof *tips);
+    /* auto: the fourth-lowest of the first six tips near the ground -> four legs */
+    double lo = INFINITY, hi = -INFINITY;
+    for (int v = 0; v < nv; v++)
+        if (p.part[v]) {
+            double h = vdot(&p, v, p.up);
+            lo = fmin(lo, h);
+            hi = fmax(hi, h);
+        }
+    info->height = hi - lo;
+    double hs[MAX_TIPS];
+    int m = ntips < 6 ? ntips : 6;
+    for (int i = 0; i < m; i++)
+        hs[i] = vdot(&p, tips[i], p.up) - lo;
+    for (int i = 0; i < m; i++)
+        for (int j = i + 1; j < m; j++)
+            if (hs[j] < hs[i]) {
+                double t = hs[i];
+                hs[i] = hs[j];
+                hs[j] = t;
+            }
+    info->fourth_lowest = m >= 4 && hi > lo ? hs[3] / (hi - lo) : 1;
+    if (body == MDL_BODY_AUTO)
+        body = m >= 6 && info->fourth_lowest < 0.3 ? MDL_BODY_QUADRUPED : MDL_BODY_HUMAN;
+    info->body = body;
+    int need = body == MDL_BODY_HUMAN ? 5 : 6;
+    if (ntips < need) {
+        e = mdl__err(err, -EINVAL,
+                     "rig: found %d geodesic extremities of the surface (a %s needs %d: %s)", ntips,
+                     body == MDL_BODY_HUMAN ? "human" : "quadruped", need,
+                     body == MDL_BODY_HUMAN ? "head, two hands, two feet"
+                                            : "four hooves, muzzle, tail");
+        goto done;
+    }
+    for (int i = 0; i < need; i++)
+        if ((e = geodesic(&p, tips[i], w.Dt[i], err)) != 0)
+            goto done;
+    e = body == MDL_BODY_HUMAN ? propose_human(&p, &w, tips, ntips, out, info, err)
+                               : propose_quadruped(&p, &w, tips, ntips, out, info, err);
+done:
+    free(w.Dc);
+    free(w.near);
+    free(w.tmp);
+    free(w.sel);
+    for (int i = 0; i < MAX_TIPS; i++)
+        free(w.Dt[i]);
+    free(p.part);
+    mdl__graph_fini(&p.g);
+    return e;
+}
