@@ -37,8 +37,9 @@
  *      (along up) of the slab, 0.03 R thick across f, through the front / hind legs' roots.
  *   7. Checks (a wrong --up, a mesh without the body's tips): fewer tips than the body needs; a
  *      human whose feet are not below the head by at least a third of the head-foot geodesic
- *      distance; a quadruped whose withers and croup are not above its hooves by a third of a
- *      leg; a forward direction parallel to up.
+ *      distance; a quadruped with fewer than three of its four lowest tips hanging below their
+ *      legs' roots (by 0.3 of the geodesic way there), or whose withers and croup are not above
+ *      its hooves by a third of a leg; a forward direction parallel to up.
  *
  * Body "auto": a quadruped stands on four tips, a person on two: the fourth-lowest of the first
  * six tips lies within 0.3 of the body's height above the lowest vertex -> quadruped.
@@ -210,8 +211,6 @@ static int find_tips(const prop *p, int centre, const double *Dc, double *near, 
             if (p->part[v] && Dt[v] < 0.1 * p->R && Dc[v] > ball)
                 ball = Dc[v];
         int local_max = ball <= Dc[best] + TIP_TOL * p->R;
-        if (getenv("RIG_DEBUG"))
-            fprintf(stderr, "fps %d near %.3f Dc %.3f R %.3f local %d\n", best, near[best], Dc[best], p->R, local_max);
         if (local_max)
             tips[n++] = best;
         for (int v = 0; v < p->nv; v++)
@@ -449,6 +448,20 @@ static int propose_quadruped(prop *p, work *w, const int *tips, int ntips, mdl_r
         if (limb_root(p, w->Dt[hoof[i]], w->Dc[tips[hoof[i]]], root[i]))
             for (int q = 0; q < 3; q++)
                 root[i][q] = p->V[3 * (size_t)tips[hoof[i]] + q];
+    /* legs hang: at least three hooves lie below their legs' roots by 0.3 of the way there */
+    int hanging = 0;
+    for (int i = 0; i < 4; i++) {
+        int t = tips[hoof[i]];
+        double drop = dot3(root[i], p->up) - vdot(p, t, p->up);
+        if (drop >= 0.3 * 0.5 * w->Dc[t])
+            hanging++;
+    }
+    if (hanging < 3)
+        return mdl__err(err, -EINVAL,
+                        "rig: %d of the four lowest extremities (vertices %d, %d, %d, %d) hang "
+                        "below their legs along the up axis (need 3): this is not a quadruped "
+                        "standing along --up, or --up is wrong",
+                        hanging, tips[hoof[0]], tips[hoof[1]], tips[hoof[2]], tips[hoof[3]]);
     double front[3], hind[3], fwd[3];
     for (int q = 0; q < 3; q++) {
         front[q] = 0.5 * (root[0][q] + root[1][q]);
