@@ -7,9 +7,7 @@
  * when a body moves its limbs: what is found in one frame is found, give or take a neighbouring
  * vertex, in every other frame of the sequence.
  *
- *   1. Centre c: the vertex of the largest connected part nearest the centroid of that part;
- *      after a first pass of step 2, again: the vertex whose largest geodesic distance to the
- *      (up to six) tips found is least, which stays on the trunk in any pose.
+ *   1. Centre c: the vertex of the largest connected part nearest the centroid of that part.
  *      D_c = geodesic distance from c; R = max D_c.
  *   2. Extremities by farthest-point sampling: e_1 = argmax D_c, e_{k+1} = argmax_v
  *      min(D_c(v), D_e1(v), .., D_ek(v)); stop when that distance falls below 0.2 R. A point
@@ -613,42 +611,6 @@ int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const flo
     if (ntips < 0) {
         e = ntips;
         goto done;
-    }
-    /* step 1b: the centroid lies outside the trunk when the body bends (a raised knee, arms
-     * round the head), and its nearest vertex may then be on a limb. So measure again from the
-     * vertex whose farthest distance to the tips found is least (the surface's centre among its
-     * tips, which does not move with the pose) */
-    if (ntips >= 2) {
-        int nt = ntips < 6 ? ntips : 6;
-        for (int i = 0; i < nt; i++)
-            if ((e = geodesic(&p, tips[i], w.Dt[i], err)) != 0)
-                goto done;
-        int c2 = -1;
-        double c2d = INFINITY;
-        for (int v = 0; v < nv; v++)
-            if (p.part[v]) {
-                double m = 0;
-                for (int i = 0; i < nt; i++)
-                    m = fmax(m, w.Dt[i][v]);
-                if (m < c2d) {
-                    c2d = m;
-                    c2 = v;
-                }
-            }
-        if (c2 >= 0 && c2 != centre) {
-            centre = c2;
-            if ((e = geodesic(&p, centre, w.Dc, err)) != 0)
-                goto done;
-            p.R = 0;
-            for (int v = 0; v < nv; v++)
-                if (p.part[v] && isfinite(w.Dc[v]) && w.Dc[v] > p.R)
-                    p.R = w.Dc[v];
-            ntips = find_tips(&p, centre, w.Dc, w.near, w.tmp, tips, err);
-            if (ntips < 0) {
-                e = ntips;
-                goto done;
-            }
-        }
     }
     info->centre = centre;
     info->ntips = ntips;
