@@ -9,7 +9,8 @@
  *
  * JSON syntax comes from cJSON; everything else is validated here, and every message names the file
  * and the JSON path of the offending value (`rig.json: markers[3].vertex: ...`). Unknown keys are
- * ignored, so that rigs may carry comments or tool-specific data.
+ * ignored, so that rigs may carry comments or tool-specific data. mdl_rig_write writes the same
+ * format (one marker per line), for `meshsteer rig`.
  */
 #include "model.h"
 #include "core/util.h"
