@@ -7,14 +7,19 @@
  * when a body moves its limbs: what is found in one frame is found, give or take a neighbouring
  * vertex, in every other frame of the sequence.
  *
- *   1. Centre c: the vertex of the largest connected part nearest the centroid of that part.
- *      D_c = geodesic distance from c; R = max D_c.
- *   2. Extremities by farthest-point sampling: e_1 = argmax D_c, e_{k+1} = argmax_v
- *      min(D_c(v), D_e1(v), .., D_ek(v)); stop when that distance falls below 0.2 R. A point
- *      counts only if it is also a local maximum of D_c within a geodesic radius of 0.1 R (a tip
- *      of the body, not a point on a flank half-way between two tips).
- *   3. Human (5 tips): head = the tip nearest c (the trunk is shorter than any limb); feet = the
- *      two tips farthest from the head; hands = the other two.
+ *   1. Centre c: the vertex of the largest connected part whose mean geodesic distance to 32
+ *      points spread over it (farthest-point sampling from its first vertex) is least: a point
+ *      of the trunk in any pose (the vertex nearest the centroid lands on a hand resting on the
+ *      hip). D_c = geodesic distance from c; R = max D_c.
+ *   2. Extremities by farthest-point sampling: the candidate is argmax_v min(D_c(v), distance
+ *      to every earlier candidate); stop when that falls below 0.2 R. From the candidate, climb
+ *      D_c to its local maximum (steps to the farthest vertex within a geodesic radius of
+ *      0.1 R); that maximum is a new tip unless it lies within 0.2 R of a tip already taken (a
+ *      point on a flank climbs to a limb found before; the cut-off neck of a headless scan is
+ *      a flat cap whose farthest point is on its rim, not where sampling lands first).
+ *   3. Human (5 tips): head = the tip of least summed geodesic distance to the other four (the
+ *      neck is shorter than any limb); feet = the two tips farthest from the head; hands = the
+ *      other two.
  *      Quadruped (6 tips): hooves = the four lowest tips along up; front hooves = the pair nearer
  *      the muzzle end; muzzle vs tail: the end whose cross-section (the ring of vertices at
  *      geodesic distance 0.15 L..0.2 L from the tip, L = D_c(tip)) is the wider.
@@ -42,7 +47,8 @@
  *      its hooves by a third of a leg; a forward direction parallel to up.
  *
  * Body "auto": a quadruped stands on four tips, a person on two: the fourth-lowest of the first
- * six tips lies within 0.3 of the body's height above the lowest vertex -> quadruped.
+ * six tips lies within 0.3 of the body's height above the lowest vertex -> quadruped; when the
+ * body so chosen fails the checks of step 7, the other body is tried.
  *
  * Names and sources: a human gets head, lhand, rhand, lfoot, rfoot (sources as the depth
  * tracker publishes them), pelvis and neck; reference pelvis -> neck; limbs neck-head, neck-hands,
@@ -61,9 +67,8 @@
 #include <string.h>
 
 #define MAX_TIPS 8
-/* a tip may have points of D_c higher by this much (per R) within 0.1 R: a cut-off end (a
- * scan without its head) is a flat cap whose far rim is a little farther than its middle */
-#define TIP_TOL 0.03
+#define CENTRE_SAMPLES 32 /* points whose mean geodesic distance the centre minimises */
+#define CLIMB_STEPS 6 /* hill-climbing steps of 0.1 R from a candidate to its tip */
 /* the neck: its band of geodesic distance from the head, per head-to-pelvis distance */
 #define NECK_LO 0.30
 #define NECK_HI 0.36
@@ -192,33 +197,58 @@ static int geodesic(const prop *p, int src, double *D, char *err)
 }
 
 /* The extremities (step 2): tips[] in farthest-point order; returns how many. */
-static int find_tips(const prop *p, int centre, const double *Dc, double *near, double *Dt,
-                     int *tips, char *err)
+/* The extremities (step 2): tips[] in farthest-point order; returns how many, or an error.
+ * near: min(D_c, distances to every candidate so far); Dt: scratch (nv each). */
+static int find_tips(const prop *p, const double *Dc, double *near, double *Dt, int *tips,
+                     char *err)
 {
-    int n = 0, e;
+    int n = 0, e = 0;
+    double *tipnear = malloc((size_t)p->nv * sizeof *tipnear); /* distance to the tips taken */
+    if (!tipnear)
+        return mdl__err(err, -ENOMEM, "rig: out of memory");
     memcpy(near, Dc, (size_t)p->nv * sizeof *near);
-    for (int it = 0; it < 4 * MAX_TIPS && n < MAX_TIPS; it++) {
+    for (int v = 0; v < p->nv; v++)
+        tipnear[v] = INFINITY;
+    for (int it = 0; it < 2 * MAX_TIPS && n < MAX_TIPS; it++) {
         int best = -1;
         for (int v = 0; v < p->nv; v++)
             if (p->part[v] && isfinite(near[v]) && (best < 0 || near[v] > near[best]))
                 best = v;
         if (best < 0 || near[best] < 0.2 * p->R)
             break;
-        if ((e = geodesic(p, best, Dt, err)) != 0)
-            return e;
-        double ball = -INFINITY; /* the highest D_c within 0.1 R of the candidate */
-        for (int v = 0; v < p->nv; v++)
-            if (p->part[v] && Dt[v] < 0.1 * p->R && Dc[v] > ball)
-                ball = Dc[v];
-        int local_max = ball <= Dc[best] + TIP_TOL * p->R;
-        if (local_max)
-            tips[n++] = best;
-        for (int v = 0; v < p->nv; v++)
-            if (Dt[v] < near[v])
-                near[v] = Dt[v];
+        /* climb D_c to its local maximum within 0.1 R: the tip the candidate belongs to */
+        int cur = best;
+        for (int step = 0; step < CLIMB_STEPS; step++) {
+            if ((e = geodesic(p, cur, Dt, err)) != 0)
+                goto out;
+            for (int v = 0; v < p->nv; v++)
+                if (Dt[v] < near[v])
+                    near[v] = Dt[v];
+            int m = cur;
+            for (int v = 0; v < p->nv; v++)
+                if (p->part[v] && Dt[v] < 0.1 * p->R && Dc[v] > Dc[m])
+                    m = v;
+            if (m == cur)
+                break;
+            cur = m;
+        }
+        /* a new tip if its maximum is not within 0.2 R of a tip already taken */
+        if (tipnear[cur] >= 0.2 * p->R) {
+            if ((e = geodesic(p, cur, Dt, err)) != 0)
+                goto out;
+            for (int v = 0; v < p->nv; v++) {
+                if (Dt[v] < tipnear[v])
+                    tipnear[v] = Dt[v];
+                if (Dt[v] < near[v])
+                    near[v] = Dt[v];
+            }
+            tips[n++] = cur;
+        }
     }
-    (void)centre;
-    return n;
+    e = n;
+out:
+    free(tipnear);
+    return e;
 }
 
 /* Root of the limb ending at `tip` (field D of that tip, length L): the ring at 0.5..0.55 L (elbow,
@@ -230,7 +260,7 @@ static int limb_root(const prop *p, const double *D, double L, double c[3])
 
 /* Orders the pair (a, b) as (left, right) by their limbs' roots. */
 static void side_pair(const prop *p, const double left[3], const double *Da, const double *Db,
-                      double La, double Lb, int *a, int *b, double *Da_out)
+                      double La, double Lb, int *a, int *b)
 {
     double ra[3], rb[3];
     int ea = limb_root(p, Da, La, ra), eb = limb_root(p, Db, Lb, rb);
@@ -240,7 +270,6 @@ static void side_pair(const prop *p, const double left[3], const double *Da, con
         *a = *b;
         *b = t;
     }
-    (void)Da_out;
 }
 
 static int set_marker(mdl_rig *r, int i, const char *name, const char *source, int vertex)
@@ -303,16 +332,23 @@ typedef struct work {
     uint8_t *sel;
 } work;
 
-static int propose_human(prop *p, work *w, const int *tips, int ntips, mdl_rig **out,
+static int propose_human(prop *p, work *w, const int *tips, mdl_rig **out,
                          mdl_rig_proposal *info, char *err)
 {
     int e, nt = 5;
-    (void)ntips;
-    /* head: nearest the centre */
+    /* head: the least summed geodesic distance to the other tips (the trunk is shorter than a
+     * limb: about 5.6 m summed for samba's head against 6.9 for a hand and 7.8 for a foot) */
     int h = 0;
-    for (int i = 1; i < nt; i++)
-        if (w->Dc[tips[i]] < w->Dc[tips[h]])
+    double hs_best = INFINITY;
+    for (int i = 0; i < nt; i++) {
+        double sum = 0;
+        for (int j = 0; j < nt; j++)
+            sum += w->Dt[j][tips[i]];
+        if (sum < hs_best) {
+            hs_best = sum;
             h = i;
+        }
+    }
     /* feet: the two farthest from the head */
     int rest[4], nr = 0;
     for (int i = 0; i < nt; i++)
@@ -363,13 +399,13 @@ static int propose_human(prop *p, work *w, const int *tips, int ntips, mdl_rig *
     const double *Dlf = w->Dt[f0], *Drf = w->Dt[f1], *Dlh = w->Dt[h0], *Drh = w->Dt[h1];
     {
         int a = f0, b = f1;
-        side_pair(p, left, w->Dt[f0], w->Dt[f1], w->Dc[lf], w->Dc[rf], &a, &b, NULL);
+        side_pair(p, left, w->Dt[f0], w->Dt[f1], w->Dc[lf], w->Dc[rf], &a, &b);
         if (a != f0) {
             lf = tips[f1], rf = tips[f0];
             Dlf = w->Dt[f1], Drf = w->Dt[f0];
         }
         a = h0, b = h1;
-        side_pair(p, left, w->Dt[h0], w->Dt[h1], w->Dc[lh], w->Dc[rh], &a, &b, NULL);
+        side_pair(p, left, w->Dt[h0], w->Dt[h1], w->Dc[lh], w->Dc[rh], &a, &b);
         if (a != h0) {
             lh = tips[h1], rh = tips[h0];
             Dlh = w->Dt[h1], Drh = w->Dt[h0];
@@ -412,11 +448,10 @@ static int propose_human(prop *p, work *w, const int *tips, int ntips, mdl_rig *
     return 0;
 }
 
-static int propose_quadruped(prop *p, work *w, const int *tips, int ntips, mdl_rig **out,
+static int propose_quadruped(prop *p, work *w, const int *tips, mdl_rig **out,
                              mdl_rig_proposal *info, char *err)
 {
     int e, nt = 6;
-    (void)ntips;
     int ord[6];
     for (int i = 0; i < nt; i++)
         ord[i] = i;
@@ -567,13 +602,14 @@ int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const flo
         e = mdl__err(err, -ENOMEM, "rig: out of memory");
         goto done;
     }
-    /* step 1: the centre */
-    double c[3] = {0, 0, 0}, n = 0, el = 0, ne = 0;
+    /* step 1: the centre, the vertex of least mean geodesic distance to CENTRE_SAMPLES points
+     * spread over the surface by farthest-point sampling (from the part's first vertex) */
+    double el = 0, ne = 0;
+    int first = -1;
     for (int v = 0; v < nv; v++)
         if (p.part[v]) {
-            for (int k = 0; k < 3; k++)
-                c[k] += V[3 * (size_t)v + k];
-            n++;
+            if (first < 0)
+                first = v;
             for (int i = p.g.off[v]; i < p.g.off[v + 1]; i++) {
                 const float *a = V + 3 * (size_t)v, *b = V + 3 * (size_t)p.g.nbr[i];
                 double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
@@ -581,20 +617,30 @@ int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const flo
                 ne++;
             }
         }
-    for (int k = 0; k < 3; k++)
-        c[k] /= n;
     p.edge = ne > 0 ? el / ne : 0;
-    int centre = -1;
-    double bd = INFINITY;
-    for (int v = 0; v < nv; v++)
-        if (p.part[v]) {
-            const float *x = V + 3 * (size_t)v;
-            double d[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]}, dd = dot3(d, d);
-            if (dd < bd) {
-                bd = dd;
-                centre = v;
+    for (int v = 0; v < nv; v++) {
+        w.near[v] = INFINITY;
+        w.Dc[v] = 0; /* the sum of distances to the samples */
+    }
+    int sample = first;
+    for (int k = 0; k < CENTRE_SAMPLES; k++) {
+        if ((e = geodesic(&p, sample, w.tmp, err)) != 0)
+            goto done;
+        int far = sample;
+        for (int v = 0; v < nv; v++)
+            if (p.part[v]) {
+                w.Dc[v] += w.tmp[v];
+                if (w.tmp[v] < w.near[v])
+                    w.near[v] = w.tmp[v];
+                if (w.near[v] > w.near[far])
+                    far = v;
             }
-        }
+        sample = far;
+    }
+    int centre = first;
+    for (int v = 0; v < nv; v++)
+        if (p.part[v] && w.Dc[v] < w.Dc[centre])
+            centre = v;
     if ((e = geodesic(&p, centre, w.Dc, err)) != 0)
         goto done;
     p.R = 0;
@@ -607,7 +653,7 @@ int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const flo
     }
     /* step 2: the tips */
     int tips[MAX_TIPS];
-    int ntips = find_tips(&p, centre, w.Dc, w.near, w.tmp, tips, err);
+    int ntips = find_tips(&p, w.Dc, w.near, w.tmp, tips, err);
     if (ntips < 0) {
         e = ntips;
         goto done;
@@ -636,7 +682,8 @@ int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const flo
                 hs[j] = t;
             }
     info->fourth_lowest = m >= 4 && hi > lo ? hs[3] / (hi - lo) : 1;
-    if (body == MDL_BODY_AUTO)
+    int autob = body == MDL_BODY_AUTO;
+    if (autob)
         body = m >= 6 && info->fourth_lowest < 0.3 ? MDL_BODY_QUADRUPED : MDL_BODY_HUMAN;
     info->body = body;
     int need = body == MDL_BODY_HUMAN ? 5 : 6;
@@ -648,11 +695,23 @@ int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const flo
                                             : "four hooves, muzzle, tail");
         goto done;
     }
-    for (int i = 0; i < need; i++)
+    for (int i = 0; i < (ntips < 6 ? ntips : 6); i++)
         if ((e = geodesic(&p, tips[i], w.Dt[i], err)) != 0)
             goto done;
-    e = body == MDL_BODY_HUMAN ? propose_human(&p, &w, tips, ntips, out, info, err)
-                               : propose_quadruped(&p, &w, tips, ntips, out, info, err);
+    e = body == MDL_BODY_HUMAN ? propose_human(&p, &w, tips, out, info, err)
+                               : propose_quadruped(&p, &w, tips, out, info, err);
+    /* auto: when the body the layout suggests fails its checks (a galloping horse with three
+     * hooves in the air), the other one; the first body's message if both fail */
+    if (autob && e == -EINVAL && ntips >= 6) {
+        char err2[MDL_ERR_LEN];
+        int other = body == MDL_BODY_HUMAN ? MDL_BODY_QUADRUPED : MDL_BODY_HUMAN;
+        int e2 = other == MDL_BODY_HUMAN ? propose_human(&p, &w, tips, out, info, err2)
+                                         : propose_quadruped(&p, &w, tips, out, info, err2);
+        if (e2 == 0) {
+            info->body = other;
+            e = 0;
+        }
+    }
 done:
     free(w.Dc);
     free(w.near);
