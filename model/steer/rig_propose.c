@@ -16,7 +16,10 @@
  *      D_c to its local maximum (steps to the farthest vertex within a geodesic radius of
  *      0.1 R); that maximum is a new tip unless it lies within 0.2 R of a tip already taken (a
  *      point on a flank climbs to a limb found before; the cut-off neck of a headless scan is
- *      a flat cap whose farthest point is on its rim, not where sampling lands first).
+ *      a flat cap whose farthest point is on its rim, not where sampling lands first). The tip
+ *      is then the middle of its cap (the vertex nearest the centroid of the vertices within
+ *      0.1 R whose D_c is within 0.03 R of the top): on a flat crown the top wanders with the
+ *      pose, the middle does not.
  *   3. Human (5 tips): head = the tip of least summed geodesic distance to the other four (the
  *      neck is shorter than any limb); feet = the two tips farthest from the head; hands = the
  *      other two.
@@ -68,7 +71,8 @@
 
 #define MAX_TIPS 8
 #define CENTRE_SAMPLES 32 /* points whose mean geodesic distance the centre minimises */
-#define CLIMB_STEPS 6 /* hill-climbing steps of 0.1 R from a candidate to its tip */
+#define CLIMB_STEPS 8 /* hill-climbing steps of 0.1 R from a candidate to its tip */
+#define CAP 0.03       /* a tip is the middle of its cap: D_c within this (per R) of the top */
 /* the neck: its band of geodesic distance from the head, per head-to-pelvis distance */
 #define NECK_LO 0.30
 #define NECK_HI 0.36
@@ -217,8 +221,8 @@ static int find_tips(const prop *p, const double *Dc, double *near, double *Dt, 
         if (best < 0 || near[best] < 0.2 * p->R)
             break;
         /* climb D_c to its local maximum within 0.1 R: the tip the candidate belongs to */
-        int cur = best;
-        for (int step = 0; step < CLIMB_STEPS; step++) {
+        int cur = best, top = 0;
+        for (int step = 0; step < CLIMB_STEPS && !top; step++) {
             if ((e = geodesic(p, cur, Dt, err)) != 0)
                 goto out;
             for (int v = 0; v < p->nv; v++)
@@ -229,11 +233,31 @@ static int find_tips(const prop *p, const double *Dc, double *near, double *Dt, 
                 if (p->part[v] && Dt[v] < 0.1 * p->R && Dc[v] > Dc[m])
                     m = v;
             if (m == cur)
-                break;
+                top = 1;
             cur = m;
         }
-        /* a new tip if its maximum is not within 0.2 R of a tip already taken */
-        if (tipnear[cur] >= 0.2 * p->R) {
+        /* a new tip if the climb reached a maximum, not within 0.2 R of a tip already taken */
+        if (top && tipnear[cur] >= 0.2 * p->R) {
+            /* the cap's middle rather than its highest vertex: a flat crown or cut has its
+             * maximum anywhere on it, its middle in one place from any pose */
+            double c[3] = {0, 0, 0}, cn = 0, bd = INFINITY;
+            for (int v = 0; v < p->nv; v++)
+                if (p->part[v] && Dt[v] < 0.1 * p->R && Dc[v] >= Dc[cur] - CAP * p->R) {
+                    for (int k = 0; k < 3; k++)
+                        c[k] += p->V[3 * (size_t)v + k];
+                    cn++;
+                }
+            int mid = cur;
+            for (int v = 0; v < p->nv; v++)
+                if (p->part[v] && Dt[v] < 0.1 * p->R && Dc[v] >= Dc[cur] - CAP * p->R) {
+                    const float *x = p->V + 3 * (size_t)v;
+                    double d[3] = {x[0] - c[0] / cn, x[1] - c[1] / cn, x[2] - c[2] / cn};
+                    if (dot3(d, d) < bd) {
+                        bd = dot3(d, d);
+                        mid = v;
+                    }
+                }
+            cur = mid;
             if ((e = geodesic(p, cur, Dt, err)) != 0)
                 goto out;
             for (int v = 0; v < p->nv; v++) {
