@@ -21,8 +21,8 @@
  *      0.1 R whose D_c is within 0.03 R of the top): on a flat crown the top wanders with the
  *      pose, the middle does not.
  *   3. Human (5 tips): head = the tip of least summed geodesic distance to the other four (the
- *      neck is shorter than any limb); feet = the two tips farthest from the head; hands = the
- *      other two.
+ *      neck is shorter than any limb), its marker the highest vertex within 0.1 R of it (as the
+ *      hand rigs place it); feet = the two tips farthest from the head; hands = the other two.
  *      Quadruped (6 tips): hooves = the four lowest tips along up; front hooves = the pair nearer
  *      the muzzle end; muzzle vs tail: the end whose cross-section (the ring of vertices at
  *      geodesic distance 0.15 L..0.2 L from the tip, L = D_c(tip)) is the wider.
@@ -436,7 +436,13 @@ static int propose_human(prop *p, work *w, const int *tips, mdl_rig **out,
         }
     }
     /* the mid-line and the trunk markers (step 6) */
+    /* the head marker: the highest vertex (along up) within 0.1 R of the head's tip, as the hand
+     * rigs place it; a scan cut at the neck (pjump) ends in an open rim whose farthest point from
+     * the centre slides round the rim with the pose, its highest point does not */
     int head = tips[h];
+    for (int v = 0; v < p->nv; v++)
+        if (p->part[v] && Dh[v] < 0.1 * p->R && vdot(p, v, p->up) > vdot(p, head, p->up))
+            head = v;
     double wid = fmax(0.02 * p->R, 2 * p->edge);
     double dh0 = Dlh[head] - Drh[head], df0 = Dlf[head] - Drf[head];
     /* pelvis: on the feet's mid-line, half-way between the head and the feet, front-most */
