@@ -29,20 +29,20 @@
  *   4. Forward f (unit, perpendicular to up): human: the toes. Per foot, the leg's axis a runs
  *      from the centroid of the ring at 0.25 L..0.3 L from the tip (ankle) to that of the ring at
  *      0.4 L..0.45 L (shin); the tip's offset from that axis points where the foot points.
- *      Quadruped: from the hind legs' roots to the front legs' roots (rings at 0.7 L..0.75 L).
+ *      Quadruped: from the hind legs' roots to the front legs' roots (rings at 0.5 L..0.55 L).
  *      Assumption: people face where their toes point; the head is the thicker end of a quadruped.
  *      left = up x f (right-handed, so a person facing +X with Y up has her left at -Z).
- *   5. Sides: of a pair of tips, the one whose limb root (the ring at 0.7 L..0.75 L from the tip:
- *      upper arm, thigh, shoulder, hip) lies further along `left` is the left one; so crossed
- *      hands or feet do not swap.
- *   6. Trunk markers. Human: the mid-line is where the geodesic distances to the two hands differ
- *      as they do at the head (|dh(v) - dh(head)| <= w), and likewise for the feet, with
- *      w = max(0.02 R, 2 x mean edge length). neck = the front-most (along f) mid-line vertex
- *      whose summed distance to the hands is within 0.05 R of its minimum on the mid-line (the
- *      base of the neck, where the hand-to-hand path crosses); pelvis = the front-most mid-line
- *      vertex whose distances to the head and to the feet differ least (within 0.02 R: halfway
- *      between head and feet, on the belly). Quadruped: withers / croup = the highest vertex
- *      (along up) of the slab, 0.03 R thick across f, through the front / hind legs' roots.
+ *   5. Sides: of a pair of tips, the one whose limb root (the ring at 0.5 L..0.55 L from the tip:
+ *      elbow, knee, hock; a ring further up wraps the trunk) lies further along `left` is the
+ *      left one; so crossed hands or feet do not swap.
+ *   6. Trunk markers. Human: a mid-line is where the geodesic distances to the two feet (or
+ *      hands) differ as they do at the head, within w = max(0.02 R, 2 x mean edge length).
+ *      pelvis = the front-most (along f) vertex of the feet's mid-line whose distances to the
+ *      head and to the feet differ least (within 0.02 R: half-way between head and feet, on the
+ *      belly); neck = the front-most vertex of the hands' mid-line at 0.30..0.36 of the head's
+ *      distance to the pelvis from the head (the base of the neck).
+ *      Quadruped: withers / croup = the highest vertex (along up) of the slab, 0.03 R thick
+ *      across f, through the front / hind legs' roots.
  *   7. Checks (a wrong --up, a mesh without the body's tips): fewer tips than the body needs; a
  *      human whose feet are not below the head by at least a third of the head-foot geodesic
  *      distance; a quadruped with fewer than three of its four lowest tips hanging below their
