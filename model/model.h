@@ -151,6 +151,28 @@ typedef struct mdl_rig {
 int mdl_rig_read(const char *path, int nv, mdl_rig **out, char *err);
 int mdl_rig_parse(const char *buf, size_t len, const char *name, int nv, mdl_rig **out, char *err);
 void mdl_rig_destroy(mdl_rig *r);
+/* Writes the rig as the JSON of DESIGN.md (markers with name, vertex and source, reference, limbs);
+ * `comment` (may be NULL) goes into a "comment" member, which readers ignore. */
+int mdl_rig_write(const char *path, const mdl_rig *r, const char *comment, char *err);
+
+/* A rig proposed from one pose of a mesh (steer/rig_propose.c, issue 12): geodesic extremities of
+ * the surface graph named by the up axis (unit or not, in the mesh's coordinates) and the body's
+ * left-right symmetry. body MDL_BODY_HUMAN: head, lhand, rhand, lfoot, rfoot, pelvis, neck,
+ * reference pelvis -> neck; MDL_BODY_QUADRUPED: withers, croup, lf/rf/lh/rh_hoof, muzzle, tail,
+ * reference croup -> withers; MDL_BODY_AUTO decides (info->body says which). Errors name what is
+ * missing (too few extremities, a body that is not upright along `up`). info may be NULL. */
+enum { MDL_BODY_AUTO = 0, MDL_BODY_HUMAN = 1, MDL_BODY_QUADRUPED = 2 };
+typedef struct mdl_rig_proposal {
+    int body;             /* MDL_BODY_HUMAN or MDL_BODY_QUADRUPED */
+    int centre;           /* the central vertex the extremities are measured from */
+    int ntips;            /* geodesic extremities found, farthest-point order */
+    int tips[8];
+    float forward[3], left[3]; /* unit, perpendicular to up: where the body faces, its left */
+    double height;        /* the body's extent along up */
+    double fourth_lowest;  /* height of the fourth-lowest of the first six tips / height (auto) */
+} mdl_rig_proposal;
+int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const float up[3], int body,
+                    mdl_rig **out, mdl_rig_proposal *info, char *err);
 
 /* ------------------------------------------------------------------ models and their kinds (kind.c) */
 

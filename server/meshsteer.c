@@ -13,6 +13,7 @@ int cmd_inspect(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_demo(int argc, char **argv);
 int cmd_markers(int argc, char **argv);
+int cmd_rig(int argc, char **argv); /* cmd_rig.c */
 int cmd_skin(int argc, char **argv); /* cmd_skin.c */
 int cmd_variations(int argc, char **argv); /* cmd_variations.c */
 
@@ -38,6 +39,7 @@ static const cli_command commands[] = {
     {"variations", "many different animations of any length from a skin's example (PC2)", cmd_variations},
     {"bench", "time training and per-frame synthesis (median, p99)", cmd_bench},
     {"markers", "write the rig vertices of a mesh sequence as a marker file", cmd_markers},
+    {"rig", "propose a rig (markers, reference, limbs) from the mesh alone", cmd_rig},
 
     /* render and example commands */
     {"render", "draw a contact sheet (PNG) of mesh frames", cmd_render},

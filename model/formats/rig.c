@@ -9,7 +9,8 @@
  *
  * JSON syntax comes from cJSON; everything else is validated here, and every message names the file
  * and the JSON path of the offending value (`rig.json: markers[3].vertex: ...`). Unknown keys are
- * ignored, so that rigs may carry comments or tool-specific data.
+ * ignored, so that rigs may carry comments or tool-specific data. mdl_rig_write writes the same
+ * format (one marker per line), for `meshsteer rig`.
  */
 #include "model.h"
 #include "core/util.h"
@@ -267,4 +268,60 @@ void mdl_rig_destroy(mdl_rig *r)
     free(r->limb_off);
     free(r->limb_idx);
     free(r);
+}
+
+/* One JSON string (escaped by cJSON) into f; 0 or -ENOMEM. */
+static int put_string(FILE *f, const char *s)
+{
+    cJSON *j = cJSON_CreateString(s);
+    char *t = j ? cJSON_PrintUnformatted(j) : NULL;
+    cJSON_Delete(j);
+    if (!t)
+        return -ENOMEM;
+    fputs(t, f);
+    cJSON_free(t);
+    return 0;
+}
+
+int mdl_rig_write(const char *path, const mdl_rig *r, const char *comment, char *err)
+{
+    FILE *f = fopen(path, "w");
+    if (!f)
+        return mdl__err(err, -errno, "%s: %s", path, strerror(errno));
+    int e = 0;
+    fputs("{\n", f);
+    if (comment) {
+        fputs("  \"comment\": ", f);
+        e |= put_string(f, comment);
+        fputs(",\n", f);
+    }
+    fputs("  \"markers\": [\n", f);
+    for (int i = 0; i < r->nmarkers && !e; i++) {
+        fputs("    {\"name\": ", f);
+        e |= put_string(f, r->markers[i].name);
+        fprintf(f, ", \"vertex\": %d, \"source\": ", r->markers[i].vertex);
+        e |= put_string(f, r->markers[i].source);
+        fprintf(f, "}%s\n", i + 1 < r->nmarkers ? "," : "");
+    }
+    fputs("  ],\n  \"reference\": [", f);
+    for (int i = 0; i < r->nref && !e; i++) {
+        e |= put_string(f, r->markers[r->ref[i]].name);
+        fputs(i + 1 < r->nref ? ", " : "", f);
+    }
+    fputs("],\n  \"limbs\": [\n", f);
+    for (int l = 0; l < r->nlimbs && !e; l++) {
+        fputs("    [", f);
+        for (int k = r->limb_off[l]; k < r->limb_off[l + 1] && !e; k++) {
+            e |= put_string(f, r->markers[r->limb_idx[k]].name);
+            fputs(k + 1 < r->limb_off[l + 1] ? ", " : "", f);
+        }
+        fprintf(f, "]%s\n", l + 1 < r->nlimbs ? "," : "");
+    }
+    fputs("  ]\n}\n", f);
+    int werr = ferror(f);
+    if (fclose(f) != 0 || werr)
+        return mdl__err(err, -EIO, "%s: write failed", path);
+    if (e)
+        return mdl__err(err, -ENOMEM, "%s: out of memory", path);
+    return 0;
 }
