@@ -30,8 +30,9 @@ static const char usage_text[] =
     "  --json             print statistics as JSON on stdout: timing, missing markers, output and\n"
     "                     input speed per frame, jitter, bounding box, non-finite values, bones\n"
     "                     driven by joint rotations\n"
-    "  --no-joints        a harmonic model driven by a BVH or ASF/AMC file: ignore the file's\n"
-    "                     joint rotations and take each bone's rotation from its markers'\n"
+    "  --no-joints        a harmonic model built with --fit-rest and driven by a BVH or ASF/AMC\n"
+    "                     file: ignore the file's joint rotations (used only with the fit) and\n"
+    "                     take each bone's rotation from its markers'\n"
     "                     directions, as for a marker-only source (the twist about a bone without\n"
     "                     a twist marker is lost; docs/MODEL.md)\n" CLI_MARKER_OPTS_HELP;
 
