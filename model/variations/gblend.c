@@ -19,7 +19,7 @@
  *             columns) shared by the three rows: D_i[r, c] = sum_b sum_k F_b[r, k] (w_ib
  *             delta_kc + v_bar_ik dw_ib[c]) + t_b[r] dw_ib[c] (+ b_r's constant part). Solved
  *             for the change X from the input frame's own bones: min |A X - (D~ - D(j + k))|^2 +
- *             |Lambda^1/2 (X - X_lin)|^2, Lambda = 1e-4 diag(A^T A) (+ 1e-12 max diag(A^T A) for
+ *             |Lambda^1/2 (X - X_lin)|^2, Lambda = 1e-6 diag(A^T A) (+ 1e-12 max diag(A^T A) for
  *             a column no key vertex sees), X_lin the linear blend's change (blend.c): a bone
  *             coordinate no key vertex's gradient determines (a translation that no weight
  *             gradient couples to b_r) follows the linear blend instead of jumping to the input
@@ -40,7 +40,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define GB_LAMBDA 1e-4
+#define GB_LAMBDA 1e-6
 
 void mdl__gblend_fini(struct mdl_variations *g)
 {
