@@ -552,8 +552,9 @@ void mdl_gltf_free(mdl_gltf *g);
 
 /* Endless different animations from one example, on the bones of its skin (Zheng 2013, Sec. 3-4):
  * transitions between frames whose reduced, rigid-invariant bone coordinates are close (Sec. 3.2),
- * spliced with the reference bone matched rigidly (eq. 7) and the other bones blended linearly in
- * its frame over a window (the comparison of Fig. 6), walked at random on the motion graph
+ * spliced with the reference bone matched rigidly (eq. 7) and the other bones blended over a
+ * window in its frame, through the deformation gradients at key vertices (Sec. 3.3, eq. 8-9) or
+ * linearly in their coordinates (the comparison of Fig. 6), walked at random on the motion graph
  * (Sec. 3.4), meeting targeted frames; optionally per component between the cut nodes of the
  * bone graph, merged by Algorithm 1 (Sec. 4). The output is bone transforms (compact, resolution-independent); vertices come from
  * the skin only when asked. docs/MODEL.md says where this departs from the paper. */
@@ -566,6 +567,8 @@ typedef struct mdl_variations_opts {
     int min_gap;        /* transitions (i, j) need |i - j| > min_gap (a frame is close to its
                            neighbours; only other valleys of D(i, .) are transitions) */
     int blend;          /* output frames over which a splice is blended (0: none) */
+    int blend_linear;   /* 0: Sec. 3.3's gradient-domain blend (key vertices, eq. 8-9); 1: the
+                           linear blend of the bones' local coordinates (Fig. 6's comparison) */
     double jump_prob;   /* per output frame, the chance of taking a transition where one is open */
     double temperature; /* which one: chance ~ exp(-D / (temperature x max_i D(i, i-1))), as in
                            video textures (Schoedl et al. 2000); 0: uniform */
@@ -579,7 +582,7 @@ typedef struct mdl_variations_opts {
 } mdl_variations_opts;
 
 /* svd_tol 0.005, tc_factor 1/40 (the paper prints 40; docs/MODEL.md says why not), threshold 0,
- * min_gap 3, blend 8, jump_prob 0.2, temperature 0.1, min_segment 8, start -1, components 1,
+ * min_gap 3, blend 8, blend_linear 0 (gradient), jump_prob 0.2, temperature 0.1, min_segment 8, start -1, components 1,
  * te_factor 0.1, ground 0 (the paper's values where it gives them). */
 void mdl_variations_opts_default(mdl_variations_opts *o);
 
@@ -595,6 +598,8 @@ typedef struct mdl_variations_stats {
     int components;     /* 1, or the components synthesised apart (Sec. 4) */
     int single_transitions; /* transitions of the whole skin's graph (= transitions with one
                            component; with several, transitions sums the components') */
+    int key_vertices;   /* the gradient blend's key vertices (Sec. 3.3; the components' sum;
+                           0 with the linear blend or no blend) */
 } mdl_variations_stats;
 
 /* The transition graph of the skin in m (-ENOENT when m holds none; -EDOM with fewer than 4

@@ -29,7 +29,8 @@ static const char usage_text[] =
     "Synthesises N different animations of F frames each from the example a skin was fitted to\n"
     "(`meshsteer skin`; Zheng 2013): transitions between frames whose bone poses, seen from the\n"
     "most influential bone, are close (Sec. 3.2), spliced with that bone matched rigidly and the\n"
-    "others blended linearly, and random walks on the graph they make (Sec. 3.4). Writes\n"
+    "others blended through the deformation gradients at key vertices (Sec. 3.3), and random\n"
+    "walks on the graph they make (Sec. 3.4). Writes\n"
     "OUT_DIR/variations.bones (every variation's bone transforms and source frames;\n"
     "docs/FORMATS.md) and OUT_DIR/variation_000.pc2, ... (the skinned mesh; topology: the\n"
     "model's rest pose). Where\n"
@@ -45,7 +46,12 @@ static const char usage_text[] =
     "  --components auto|1   auto (default): the bone graph's blocks between its cut nodes\n"
     "                        walk apart and are merged (Sec. 4); 1: the skin as one\n"
     "  --te-factor F         bone graph edges below F x the largest are dropped (default 0.1)\n"
-    "  --blend N             frames over which a transition is blended (default 8, 0: none)\n"
+    "  --blend gradient|linear  how a transition is blended: gradient (default, Sec. 3.3: the\n"
+    "                        key vertices' deformation gradients blended by a 1-D Poisson solve,\n"
+    "                        the bones solved from them, eq. 9) or linear (the bones' local\n"
+    "                        coordinates, the comparison of the paper's Fig. 6). Before the\n"
+    "                        gradient blend, --blend N was the window: that is now\n"
+    "  --blend-frames N      frames over which a transition is blended (default 8, 0: none)\n"
     "  --jump-prob P         chance per frame of taking an open transition (default 0.2)\n"
     "  --temperature F       prefer cheap transitions: chance ~ exp(-D / (F x max D(i, i-1)))\n"
     "                        (default 0.1; 0: uniform)\n"
@@ -73,7 +79,8 @@ static const char usage_text[] =
     "                        --te-factor and --ground too). --model defaults to it;\n"
     "                        --count, --frames and -o are then optional\n"
     "  --json                print bones, frames, ref_bone, rank, alpha, beta, max_adjacent,\n"
-    "                        tc, transitions (the components' sum), single_transitions (the\n"
+    "                        tc, blend (gradient, linear or none), blend_frames, key_vertices\n"
+    "                        (the gradient blend's; the components' sum), transitions (the components' sum), single_transitions (the\n"
     "                        whole skin's graph), the transition list (from, to, cost) of\n"
     "                        the whole skin's graph, cut_nodes, components (per component\n"
     "                        its bones, cut node, parent, ref_bone, tc, transitions and\n"
@@ -348,13 +355,13 @@ int cmd_variations(int argc, char **argv)
     mdl_variations_opts vo;
     mdl_variations_opts_default(&vo);
     vo.components = 0;
-    enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_JUMP, O_TEMP,
+    enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_BLENDF, O_JUMP, O_TEMP,
            O_MINSEG, O_START, O_JSON, O_ADD, O_COMP, O_TEF, O_END, O_TARGET, O_THREADS, O_PC2,
            O_OVERLAP, O_GROUND, O_GLTF };
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},         {"count", 1, 0, O_COUNT},   {"frames", 1, 0, O_FRAMES},
         {"seed", 1, 0, O_SEED},           {"threshold", 1, 0, O_THRESH},
-        {"tc-factor", 1, 0, O_TCF},       {"blend", 1, 0, O_BLEND},   {"jump-prob", 1, 0, O_JUMP},
+        {"tc-factor", 1, 0, O_TCF},       {"blend", 1, 0, O_BLEND},   {"jump-prob", 1, 0, O_JUMP}, {"blend-frames", 1, 0, O_BLENDF},
         {"temperature", 1, 0, O_TEMP},    {"min-segment", 1, 0, O_MINSEG},
         {"start", 1, 0, O_START},         {"json", 0, 0, O_JSON},     {"help", 0, 0, 'h'},
         {"add-to", 1, 0, O_ADD},          {"components", 1, 0, O_COMP},
@@ -372,7 +379,14 @@ int cmd_variations(int argc, char **argv)
         case O_SEED: if (cli_parse_int(cmd, "--seed", optarg, &seed)) return CLI_EXIT_USAGE; break;
         case O_THRESH: if (cli_parse_double(cmd, "--threshold", optarg, &vo.threshold)) return CLI_EXIT_USAGE; break;
         case O_TCF: if (cli_parse_double(cmd, "--tc-factor", optarg, &vo.tc_factor)) return CLI_EXIT_USAGE; break;
-        case O_BLEND: if (cli_parse_int(cmd, "--blend", optarg, &vo.blend)) return CLI_EXIT_USAGE; break;
+        case O_BLEND:
+            if (!strcmp(optarg, "gradient") || !strcmp(optarg, "linear"))
+                vo.blend_linear = !strcmp(optarg, "linear");
+            else
+                return cli_usage_error(cmd, "--blend '%s': gradient or linear (the window's length "
+                                       "is --blend-frames N)", optarg);
+            break;
+        case O_BLENDF: if (cli_parse_int(cmd, "--blend-frames", optarg, &vo.blend)) return CLI_EXIT_USAGE; break;
         case O_JUMP: if (cli_parse_double(cmd, "--jump-prob", optarg, &vo.jump_prob)) return CLI_EXIT_USAGE; break;
         case O_TEMP: if (cli_parse_double(cmd, "--temperature", optarg, &vo.temperature)) return CLI_EXIT_USAGE; break;
         case O_MINSEG: if (cli_parse_int(cmd, "--min-segment", optarg, &vo.min_segment)) return CLI_EXIT_USAGE; break;
@@ -418,7 +432,7 @@ int cmd_variations(int argc, char **argv)
         vo.jump_prob > 1 || !(vo.temperature >= 0) || vo.min_segment < 0 || vo.start < -1 ||
         !(vo.te_factor >= 0 && vo.te_factor <= 1) || end < -1 || threads < 1 || npc2 < -1 ||
         !(max_overlap >= 0 && max_overlap <= 1))
-        return cli_usage_error(cmd, "--threshold, --tc-factor, --blend, --jump-prob, "
+        return cli_usage_error(cmd, "--threshold, --tc-factor, --blend-frames, --jump-prob, "
                                "--temperature, --min-segment, --start, --te-factor, --end, --threads, --pc2 or "
                                "--max-overlap out of range");
 
@@ -704,6 +718,9 @@ int cmd_variations(int argc, char **argv)
         cJSON_AddNumberToObject(jo, "beta", st.beta);
         cJSON_AddNumberToObject(jo, "max_adjacent", st.max_adjacent);
         cJSON_AddNumberToObject(jo, "tc", st.tc);
+        cJSON_AddStringToObject(jo, "blend", vo.blend < 1 ? "none" : vo.blend_linear ? "linear" : "gradient");
+        cJSON_AddNumberToObject(jo, "blend_frames", vo.blend);
+        cJSON_AddNumberToObject(jo, "key_vertices", st.key_vertices);
         cJSON_AddNumberToObject(jo, "transitions", st.transitions);
         cJSON_AddNumberToObject(jo, "single_transitions", st.single_transitions);
         if (add_components(jo, v, &st)) {

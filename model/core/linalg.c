@@ -75,6 +75,27 @@ int mdl_la_gesvd(int m, int n, double *A, int lda, double *s, double *U, int ldu
     return check_info("dgesvd", info, err);
 }
 
+int mdl_la_gglse(int m, int n, int p, double *A, int lda, double *B, int ldb, double *c, double *d,
+                 double *x, char *err)
+{
+    double q;
+    lapack_int info = LAPACKE_dgglse_work(LAPACK_COL_MAJOR, m, n, p, A, lda, B, ldb, c, d, x, &q, -1);
+    if (info != 0)
+        return check_info("dgglse (workspace query)", info, err);
+    lapack_int lwork = (lapack_int)q;
+    double *work = malloc(sizeof(double) * (size_t)(lwork > 1 ? lwork : 1));
+    if (!work)
+        return mdl__err(err, -ENOMEM, "dgglse: out of memory for workspace");
+    info = LAPACKE_dgglse_work(LAPACK_COL_MAJOR, m, n, p, A, lda, B, ldb, c, d, x, work, lwork);
+    free(work);
+    return check_info("dgglse", info, err);
+}
+
+int mdl_la_gtsv(int n, int nrhs, double *dl, double *dg, double *du, double *B, int ldb, char *err)
+{
+    return check_info("dgtsv", LAPACKE_dgtsv_work(LAPACK_COL_MAJOR, n, nrhs, dl, dg, du, B, ldb), err);
+}
+
 int mdl_la_potrf(int n, double *A, int lda, char *err)
 {
     return check_info("dpotrf", LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'U', n, A, lda), err);

@@ -31,6 +31,15 @@ int mdl_la_syev(int n, double *A, int lda, double *w, char *err);
 int mdl_la_gesvd(int m, int n, double *A, int lda, double *s, double *U, int ldu, double *VT,
                  int ldvt, char *err);
 
+/* Equality-constrained least squares (dgglse): min |A x - c| subject to B x = d, A m x n, B p x n
+ * (p <= n <= m + p, B of full row rank, [A; B] of full column rank); A, B, c, d are overwritten,
+ * x gets n values. Allocates its workspace (analysis only). */
+int mdl_la_gglse(int m, int n, int p, double *A, int lda, double *B, int ldb, double *c, double *d,
+                 double *x, char *err);
+/* Tridiagonal solve (dgtsv): dl (n - 1 below), dg (n), du (n - 1 above) are overwritten by the
+ * factorisation, B (n x nrhs, ldb) by the solution. No allocation. */
+int mdl_la_gtsv(int n, int nrhs, double *dl, double *dg, double *du, double *B, int ldb, char *err);
+
 /* Cholesky factorisation of a symmetric positive definite matrix (dpotrf, upper), then solves with
  * it (dpotrs) for nrhs right-hand sides. No allocation: usable per frame. */
 int mdl_la_potrf(int n, double *A, int lda, char *err);

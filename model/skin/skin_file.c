@@ -9,10 +9,12 @@
  *   f64 T[nframes nb 12]          R (row-major, orthonormal within 1e-6) then t, per frame, bone
  *   u32 iterations, f64 rmse, rmse_over_diag, max_err, diag, seconds
  * and, only when the synthesis walks the example's transition graph (mdl_variations_attach):
- *   u32 version (1 or 2), f64 svd_tol, tc_factor, threshold, u32 min_gap, blend, f64 jump_prob,
+ *   u32 version (1, 2 or 3), f64 svd_tol, tc_factor, threshold, u32 min_gap, blend, f64 jump_prob,
  *   temperature, u32 min_segment, i32 start, u64 seed          (mdl_variations_opts, model.h)
  *   version 2 also: u32 components (0 auto, 1 one), f64 te_factor, u32 ground (0 or 1)
+ *   version 3 also: u32 blend_linear (0 the gradient blend, 1 the linear one)
  * (version 1, written before the components were stored, walks one component without --ground;
+ * versions 1 and 2, written before the gradient blend, walk with the linear blend they had;
  * readers before the trailer refuse a chunk with it: "bytes of it were not read")
  * Loading checks every count, index, weight sum and rotation: a corrupt file gives a clear error. */
 #include "skin/skin_internal.h"
@@ -63,7 +65,7 @@ static void skin_save(const void *impl, const mdl_model *m, mdl__wbuf *b)
     mdl__put_f64(b, k->st.diag);
     mdl__put_f64(b, k->st.seconds);
     if (k->has_vars) {
-        mdl__put_u32(b, 2);
+        mdl__put_u32(b, 3);
         mdl__put_f64(b, k->vars.svd_tol);
         mdl__put_f64(b, k->vars.tc_factor);
         mdl__put_f64(b, k->vars.threshold);
@@ -77,6 +79,7 @@ static void skin_save(const void *impl, const mdl_model *m, mdl__wbuf *b)
         mdl__put_u32(b, (uint32_t)k->vars.components);
         mdl__put_f64(b, k->vars.te_factor);
         mdl__put_u32(b, (uint32_t)k->vars.ground);
+        mdl__put_u32(b, (uint32_t)k->vars.blend_linear);
     }
 }
 
@@ -112,10 +115,11 @@ static int skin_parse(mdl__rbuf *b, const mdl_model *m, void **impl)
     k->st.diag = mdl__get_f64(b, "diag");
     k->st.seconds = mdl__get_f64(b, "seconds");
     if (!b->rc && b->at < b->n) {
-        int version = mdl__get_int(b, "variations flag", 1, 2);
+        int version = mdl__get_int(b, "variations flag", 1, 3);
         k->has_vars = 1;
         mdl_variations_opts_default(&k->vars);
         k->vars.components = 1; /* version 1: one component, no ground */
+        k->vars.blend_linear = 1; /* versions 1-2: the linear blend, the only one then */
         k->vars.svd_tol = mdl__get_f64(b, "variations svd_tol");
         k->vars.tc_factor = mdl__get_f64(b, "variations tc_factor");
         k->vars.threshold = mdl__get_f64(b, "variations threshold");
@@ -126,10 +130,12 @@ static int skin_parse(mdl__rbuf *b, const mdl_model *m, void **impl)
         k->vars.min_segment = mdl__get_int(b, "variations min_segment", 0, 1 << 24);
         k->vars.start = (int32_t)mdl__get_u32(b);
         k->vars_seed = mdl__get_u64(b);
-        if (version == 2) {
+        if (version >= 2) {
             k->vars.components = mdl__get_int(b, "variations components", 0, 1);
             k->vars.te_factor = mdl__get_f64(b, "variations te_factor");
             k->vars.ground = mdl__get_int(b, "variations ground", 0, 1);
+            if (version >= 3)
+                k->vars.blend_linear = mdl__get_int(b, "variations blend_linear", 0, 1);
             if (!b->rc && !(k->vars.te_factor >= 0 && k->vars.te_factor <= 1))
                 mdl__rfail(b, "variations te_factor out of range");
         }
@@ -208,8 +214,10 @@ static void skin_describe(const void *impl, const mdl_model *m, char *buf, size_
                  k->st.rmse, 100 * k->st.rmse_over_diag, k->st.diag, k->st.max_err);
     if (k->has_vars)
         mdl__appendf(buf, len, at, "plays      an endless random walk on the transition graph (Zheng "
-                     "2013), seed %llu, components %s%s\n", (unsigned long long)k->vars_seed,
-                     k->vars.components == 1 ? "1" : "auto", k->vars.ground ? ", ground" : "");
+                     "2013), seed %llu, components %s%s, blend %s\n",
+                     (unsigned long long)k->vars_seed, k->vars.components == 1 ? "1" : "auto",
+                     k->vars.ground ? ", ground" : "",
+                     k->vars.blend < 1 ? "none" : k->vars.blend_linear ? "linear" : "gradient");
     else
         mdl__appendf(buf, len, at, "plays      the fitted frames, looping\n");
 }

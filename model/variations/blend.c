@@ -1,13 +1,17 @@
 /* blend.c - splicing two segments of the example (Zheng 2013 Sec. 3.3): the reference bone matched
- * rigidly (eq. 7), the other bones blended linearly in its local frame over a window (the simple
- * scheme Fig. 6 compares against), and back to the world frame (eq. 10).
+ * rigidly (eq. 7), the other bones blended in its local frame over a window of L = o.blend output
+ * frames, and back to the world frame (eq. 10).
  *
  *   eq. (7)   the segment S_j->b is moved by the fixed rigid transform that puts b_r of frame j on
  *             b_r of frame i: G <- G (R_r(i) R_r(j)^T, t_r(i) - R_r(i) R_r(j)^T t_r(j)), so that
  *             R~_r(k) = G_R R_r(k), t~_r(k) = G_R t_r(k) + G_t for every later frame k; the
  *             velocity of b_r stays smooth because D (eq. 5) matched it (the beta term).
- *   blend     the local-frame bone coordinates (eq. 2) of the new segment are carried from the old
- *             one's at the splice and let go linearly over L = blend output frames:
+ *   gradient  (the default, the paper's) the key vertices' deformation gradients blended by the
+ *             1-D Poisson solve and the bones solved from them by eq. 9 (gblend.c), which needs
+ *             the linear blend below as its pull for what the gradients leave undetermined.
+ *   linear    (o.blend_linear, the simple scheme Fig. 6 compares against) the local-frame bone
+ *             coordinates (eq. 2) of the new segment are carried from the old one's at the splice
+ *             and let go linearly over the window:
  *               R~_b->r(j + k) = Exp(s_k Phi(R_b->r(i) R_b->r(j)^T)) R_b->r(j + k),
  *               x~_b(j + k) = x_b(j + k) + s_k (x_b(i) - x_b(j)),   s_k = 1 - k / L,
  *             where x_b = R_b->r c_b + t_b->r is where the bone's centre c_b (the weighted centroid
@@ -26,8 +30,8 @@
  *             input's height and tilt; what eq. 7 would have matched (the tilt and height of
  *             frame i against frame j) is carried as an offset of b_r, about its centre, and let
  *             go linearly over the window like the other bones' offsets.
- * The gradient-domain blend of Sec. 3.3 (key vertices, eq. 8-9) is not implemented. Per step: no
- * allocation (the offsets are sized at init), doubles. */
+ * Per step: no allocation (the offsets and the gradient blend's scratch are sized at init),
+ * doubles. */
 #include "variations/variations.h"
 #include "core/rigid.h"
 #include "core/util.h"
@@ -42,6 +46,17 @@ int mdl__vblend_init(mdl__vblend *b, const struct mdl_variations *v)
     memset(b, 0, sizeof *b);
     b->om = mdl__calloc(3 * (size_t)v->nb, sizeof *b->om);
     b->dt = mdl__calloc(3 * (size_t)v->nb, sizeof *b->dt);
+    if (v->nkey > 0) {
+        b->kom = mdl__calloc(3 * (size_t)v->nkey, sizeof *b->kom);
+        b->kdS = mdl__calloc(6 * (size_t)v->nkey, sizeof *b->kdS);
+        b->R = mdl__calloc(9 * (size_t)v->nkey, sizeof *b->R);
+        b->X = mdl__calloc(3 * (size_t)v->nu, sizeof *b->X);
+        b->X0 = mdl__calloc(3 * (size_t)v->nu, sizeof *b->X0);
+        if (!b->kom || !b->kdS || !b->R || !b->X || !b->X0) {
+            mdl__vblend_fini(b);
+            return -ENOMEM;
+        }
+    }
     if (!b->om || !b->dt) {
         mdl__vblend_fini(b);
         return -ENOMEM;
@@ -54,7 +69,12 @@ void mdl__vblend_fini(mdl__vblend *b)
 {
     free(b->om);
     free(b->dt);
-    b->om = b->dt = NULL;
+    free(b->kom);
+    free(b->kdS);
+    free(b->R);
+    free(b->X);
+    free(b->X0);
+    b->om = b->dt = b->kom = b->kdS = b->R = b->X = b->X0 = NULL;
 }
 
 void mdl__vblend_reset(mdl__vblend *b, const struct mdl_variations *v)
@@ -65,7 +85,17 @@ void mdl__vblend_reset(mdl__vblend *b, const struct mdl_variations *v)
     memset(b->dt, 0, 3 * (size_t)v->nb * sizeof *b->dt);
     memset(b->rom, 0, sizeof b->rom);
     memset(b->rdt, 0, sizeof b->rdt);
+    if (b->kom) {
+        memset(b->kom, 0, 3 * (size_t)v->nkey * sizeof *b->kom);
+        memset(b->kdS, 0, 6 * (size_t)v->nkey * sizeof *b->kdS);
+    }
     b->since = v->o.blend;
+}
+
+/* the gradient blend runs (a graph built with it, in a window) */
+static int gradient(const mdl__vblend *b, const struct mdl_variations *v)
+{
+    return b->kom && !v->o.blend_linear && b->since < v->o.blend;
 }
 
 static double weight(const mdl__vblend *b, const struct mdl_variations *v)
@@ -125,10 +155,15 @@ void mdl__vblend_pose(const mdl__vblend *b, const struct mdl_variations *v, int 
     double Rr[9], tr[3];
     double s = weight(b, v);
     ref_pose(b, v, c, s, Rr, tr);
-    for (int k = 0; k < v->nb; k++) {
+    for (int k = 0; k < v->nb; k++) /* the local frames first */
+        local(b, v, c, k, s, T + 12 * (size_t)k, T + 12 * (size_t)k + 9);
+    if (gradient(b, v))
+        mdl__gblend_local(b, v, c, v->hramp[b->since], T);
+    for (int k = 0; k < v->nb; k++) { /* eq. (10) */
         double R[9], t[3];
-        local(b, v, c, k, s, R, t);
         double *M = T + 12 * (size_t)k;
+        memcpy(R, M, sizeof R);
+        memcpy(t, M + 9, sizeof t);
         mdl__mat3_mul(Rr, R, M);
         for (int a = 0; a < 3; a++)
             M[9 + a] = Rr[3 * a] * t[0] + Rr[3 * a + 1] * t[1] + Rr[3 * a + 2] * t[2] + tr[a];
@@ -138,6 +173,8 @@ void mdl__vblend_pose(const mdl__vblend *b, const struct mdl_variations *v, int 
 void mdl__vblend_splice(mdl__vblend *b, const struct mdl_variations *v, int i, int j)
 {
     double s = weight(b, v);
+    if (b->kom && !v->o.blend_linear && v->o.blend > 0)
+        mdl__gblend_splice(b, v, i, j, gradient(b, v) ? v->hramp[b->since] : 0);
     if (v->o.blend > 0)
         for (int k = 0; k < v->nb; k++) {
             if (k == v->ref)

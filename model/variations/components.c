@@ -16,7 +16,9 @@
  *               the anchor's part of the graph does not reach (a bone graph in several parts)
  *               are fused into the anchor. One component left: the skin's own graph is used.
  *   per component  T restricted to its bones, its own reference bone (largest weight sum among
- *               them), D, alpha, beta and T_c on its own frames (mdl__variations_analyse).
+ *               them), D, alpha, beta and T_c on its own frames (mdl__variations_analyse), and
+ *               for the gradient blend its own key vertices, on its bones' weights renormalised
+ *               (gblend.c).
  * Analysis: allocates freely. */
 #include "variations/variations.h"
 #include "core/util.h"
@@ -43,7 +45,7 @@ void mdl__components_fini(struct mdl_variations *v)
 
 /* the graph of the bones where in[b] (count n) */
 static int build_sub(const struct mdl_variations *v, const uint8_t *in, int n,
-                     struct mdl_variations **out, char *err)
+                     const mdl__vskin *sk, struct mdl_variations **out, char *err)
 {
     struct mdl_variations *g = mdl__calloc(1, sizeof *g);
     if (!g)
@@ -70,6 +72,16 @@ static int build_sub(const struct mdl_variations *v, const uint8_t *in, int n,
         k++;
     }
     int rc = mdl__variations_analyse(g, err);
+    if (!rc && !g->o.blend_linear && g->o.blend > 0) { /* its key vertices, on its bones' weights */
+        int *map = mdl__calloc((size_t)v->nb, sizeof *map);
+        if (!map)
+            rc = mdl__err(err, -ENOMEM, "variations: out of memory");
+        for (int b = 0, k = 0; map && b < v->nb; b++)
+            map[b] = in[b] ? k++ : -1;
+        if (!rc)
+            rc = mdl__gblend_build(g, sk, map, err);
+        free(map);
+    }
     if (rc) {
         mdl_variations_destroy(g);
         return rc;
@@ -99,7 +111,8 @@ static void fuse(proto *p, int nb, int x)
     p[q].g = NULL;
 }
 
-int mdl__components_build(struct mdl_variations *v, const int *bone, const double *w, char *err)
+int mdl__components_build(struct mdl_variations *v, const int *bone, const double *w,
+                          const mdl__vskin *sk, char *err)
 {
     int nb = v->nb, rc = 0;
     v->bg = mdl__calloc(1, sizeof *v->bg);
@@ -175,7 +188,7 @@ int mdl__components_build(struct mdl_variations *v, const int *bone, const doubl
                 continue;
             }
             if (!p[k].g)
-                rc = build_sub(v, p[k].in, p[k].n, &p[k].g, err);
+                rc = build_sub(v, p[k].in, p[k].n, sk, &p[k].g, err);
             if (!rc && k != root && p[k].g->nalive < 1) {
                 fuse(p, nb, k);
                 changed = 1;

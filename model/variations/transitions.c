@@ -45,6 +45,7 @@ void mdl_variations_opts_default(mdl_variations_opts *o)
     o->threshold = 0;
     o->min_gap = 3;
     o->blend = 8;
+    o->blend_linear = 0;
     o->jump_prob = 0.2;
     o->temperature = 0.1;
     o->min_segment = 8;
@@ -71,6 +72,7 @@ void mdl_variations_destroy(mdl_variations *v)
     free(v->w);
     free(v->centre);
     free(v->wsum);
+    mdl__gblend_fini(v);
     mdl__components_fini(v);
     free(v);
 }
@@ -119,10 +121,14 @@ void mdl_variations_get_stats(const mdl_variations *v, mdl_variations_stats *st)
     st->tc = v->tc;
     st->components = v->ncomp > 1 ? v->ncomp : 1;
     st->single_transitions = v->ntrans;
+    st->key_vertices = v->nkey;
     if (v->ncomp > 1) {
         st->transitions = 0;
-        for (int c = 0; c < v->ncomp; c++)
+        st->key_vertices = 0;
+        for (int c = 0; c < v->ncomp; c++) {
             st->transitions += v->comp[c].g->ntrans;
+            st->key_vertices += v->comp[c].g->nkey;
+        }
     }
 }
 
@@ -345,7 +351,8 @@ int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_v
     if (!(v->o.svd_tol >= 0 && v->o.svd_tol < 1) || v->o.min_gap < 0 || v->o.blend < 0 ||
         !(v->o.jump_prob >= 0 && v->o.jump_prob <= 1) || !(v->o.temperature >= 0) || v->o.min_segment < 0 ||
         v->o.start >= N || !(v->o.tc_factor > 0 || v->o.threshold > 0) ||
-        v->o.components < 0 || v->o.components > 1 || v->o.ground < 0 || v->o.ground > 1 || !(v->o.te_factor >= 0 && v->o.te_factor <= 1)) {
+        v->o.components < 0 || v->o.components > 1 || v->o.ground < 0 || v->o.ground > 1 ||
+        v->o.blend_linear < 0 || v->o.blend_linear > 1 || !(v->o.te_factor >= 0 && v->o.te_factor <= 1)) {
         mdl_variations_destroy(v);
         return mdl__err(err, -EINVAL, "variations: options out of range");
     }
@@ -378,8 +385,11 @@ int mdl_variations_build(const mdl_model *m, const mdl_variations_opts *o, mdl_v
         for (int c = 0; c < 3; c++)
             v->centre[3 * b + c] = wsum[b] > 0 ? v->centre[3 * b + c] / wsum[b] : 0;
     rc = mdl__variations_analyse(v, err);
+    const mdl__vskin sk = {info.nv, K, info.nf, info.rest, bone, w, info.F};
+    if (!rc && !v->o.blend_linear && v->o.blend > 0)
+        rc = mdl__gblend_build(v, &sk, NULL, err);
     if (!rc && v->o.components == 0)
-        rc = mdl__components_build(v, bone, w, err);
+        rc = mdl__components_build(v, bone, w, &sk, err);
 out:
     if (rc) {
         mdl_variations_destroy(v);

@@ -4,9 +4,15 @@
  *   transitions.c  Sec. 3.2: reference bone, local-frame bone positions (eq. 2), reduced
  *                  coordinates (eq. 3-4), transition cost D(i, j) (eq. 5-6), candidates below T_c
  *   blend.c        Sec. 3.3: the reference bone matched rigidly (eq. 7; or on the ground plane,
- *                  Sec. 5) and the linear blend of
- *                  the local bone coordinates over a window (the comparison of Fig. 6), back to the
- *                  world frame (eq. 10)
+ *                  Sec. 5), the other bones blended over a window, back to the world frame
+ *                  (eq. 10): the linear blend of the local bone coordinates (the comparison of
+ *                  Fig. 6) or, by default, the gradient-domain blend of gblend.c
+ *   keys.c         Sec. 3.3: the key vertices (max w_ib per bone, max w_ib w_jb per bone pair)
+ *   weight_grad.c  Appendix A: the weight gradients at the key vertices (eq. 15-17)
+ *   defgrad.c      Sec. 3.3: the key vertices' deformation gradients in b_r's frame (eq. 8) and
+ *                  their rotation-strain coordinates d_i(t), for every input frame
+ *   gblend.c       Sec. 3.3: the 1-D Poisson blend of d_i over the window (Fig. 7) and the bones
+ *                  from the blended gradients (eq. 9)
  *   walk.c         Sec. 3.4: random walks on the motion graph, one output frame per step
  *   bone_graph.c   Sec. 4.1: the bone graph (eq. 11), T_e, cut nodes, the blocks between them
  *   components.c   Sec. 4: the components synthesised apart and the order they are merged in
@@ -67,6 +73,22 @@ struct mdl_variations {
     float *w;        /* nv x K */
     double *centre;  /* nb x 3: each bone's weighted centroid of the rest pose (blend.c) */
     double *wsum;    /* nb: sum_i w_ib */
+    /* Sec. 3.3's gradient-domain blend (keys.c, weight_grad.c, defgrad.c, gblend.c); read-only
+     * after the build, so walks on several threads share it */
+    int nkey;
+    int *key_v;      /* nkey: the mesh vertex of key vertex i */
+    double *key_x;   /* nkey x 3: its rest position v_bar_i */
+    int *kb_off;     /* nkey + 1: key i's bones are [kb_off[i], kb_off[i + 1]) */
+    int *kb_bone;    /* bone (this graph's numbering) */
+    double *kb_w;    /* w_ib (normalised over this graph's bones) */
+    double *kb_g;    /* x 3: dw_ib / dv_bar_i (Appendix A; sum over b exactly 0) */
+    double *kD;      /* nframes x nkey x 9: D_i(t) of eq. 8, row-major */
+    double *kd;      /* nframes x nkey x 9: d_i(t) = [Phi(U); S00 S01 S02 S11 S12 S22], D = U S */
+    int nu;          /* unknowns of eq. 9 per row of F: 4 (nb - 1) */
+    int *ucol;       /* nb: bone b's first unknown (F_b row, then t_b entry); -1 for b_r */
+    double *gN;      /* nu x nu: upper Cholesky factor of A^T A + Lambda (column-major) */
+    double *glam;    /* nu: Lambda, the pull toward the linear blend */
+    double *hramp;   /* o.blend + 1: the Poisson window's shape, h_0 = 1 .. h_blend = 0 */
     /* Sec. 4 (components.c): ncomp > 1 when walks are synthesised per component */
     int ncomp;
     mdl__vcomp *comp;              /* ncomp, parents before children */
@@ -76,8 +98,40 @@ struct mdl_variations {
 /* transitions.c: the reference bone, eq. 2-6 and the transitions of v (nb, nframes, T, wsum,
  * centre and o set). */
 int mdl__variations_analyse(struct mdl_variations *v, char *err);
+/* The skin key vertices are chosen on: the whole model's, also for a component's graph. */
+typedef struct mdl__vskin {
+    int nv, K, nf;
+    const float *rest;     /* nv x 3 */
+    const int *bone;       /* nv x K */
+    const double *w;       /* nv x K */
+    const uint32_t *F;     /* nf x 3 */
+} mdl__vskin;
+
+/* keys.c: vertex v's weights over g's bones, map[global bone] -> g's bone or -1 (NULL: the same),
+ * normalised to sum 1; their count (0 when none of g's bones moves v), at most s->K. */
+int mdl__vskin_vertex(const mdl__vskin *s, const int *map, int v, int *lb, double *w);
+/* keys.c: g->key_v, g->nkey (Sec. 3.3's selection); nb of g's bones. */
+int mdl__keys_select(struct mdl_variations *g, const mdl__vskin *s, const int *map, char *err);
+/* weight_grad.c: g->key_x and the kb_* arrays (Appendix A). */
+int mdl__weight_grads(struct mdl_variations *g, const mdl__vskin *s, const int *map, char *err);
+/* defgrad.c: eq. 8 at key vertex i from local bone frames LR (nb x 9), Lt (nb x 3): D (3x3
+ * row-major); and g->kD, g->kd for every input frame. */
+void mdl__defgrad(const struct mdl_variations *g, int i, const double *LR, const double *Lt,
+                  double D[9]);
+int mdl__defgrads(struct mdl_variations *g, char *err);
+/* gblend.c: all of the above and eq. 9's factor and the window's shape, after
+ * mdl__variations_analyse (g->ref, LR, Lt set). */
+int mdl__gblend_build(struct mdl_variations *g, const mdl__vskin *s, const int *map, char *err);
+void mdl__gblend_fini(struct mdl_variations *g);
+/* eq. 9: the least-squares bone offsets X (nu x 3, column r the unknowns of row r of every F_b
+ * and t_b) for R (nkey x 9, the gradients' wanted change, row-major) with the pull Lambda toward
+ * X0 (nu x 3, may be NULL: 0); X is overwritten. No allocation. */
+int mdl__gblend_solve(const struct mdl_variations *g, const double *R, const double *X0,
+                      double *X);
+
 /* components.c: v->comp from the bone graph of the skin (bone, w: nv x K). */
-int mdl__components_build(struct mdl_variations *v, const int *bone, const double *w, char *err);
+int mdl__components_build(struct mdl_variations *v, const int *bone, const double *w,
+                          const mdl__vskin *s, char *err);
 void mdl__components_fini(struct mdl_variations *v);
 
 /* merge.c (Sec. 4.2): polar decomposition F = U S (F row-major 3x3); D_C of eq. 12 between the
@@ -126,6 +180,11 @@ typedef struct mdl__vblend {
     int since;       /* output frames since the last transition (>= blend: no offset) */
     double rom[3], rdt[3]; /* o.ground: the reference bone's offset rotation (Phi, about its
                               centre) and translation at the last splice, let go over the window */
+    /* the gradient blend (v->nkey > 0, not o.blend_linear) */
+    double *kom;     /* nkey x 3: Phi(U~_i(i) U_i(j)^T) at the last splice */
+    double *kdS;     /* nkey x 6: S~_i(i) - S_i(j) (upper triangles) */
+    double *R;       /* nkey x 9 scratch: the wanted change of D_i */
+    double *X, *X0;  /* nu x 3 scratch: eq. 9's offsets, the linear blend's */
 } mdl__vblend;
 
 int mdl__vblend_init(mdl__vblend *b, const struct mdl_variations *v);
@@ -137,6 +196,12 @@ void mdl__vblend_pose(const mdl__vblend *b, const struct mdl_variations *v, int 
 void mdl__vblend_splice(mdl__vblend *b, const struct mdl_variations *v, int i, int j);
 /* Advances the window by one output frame. */
 void mdl__vblend_advance(mdl__vblend *b);
+/* gblend.c: at a splice (i, j), the key vertices' offsets from what frame i showed (the old
+ * offsets at window weight h) to frame j; and the local bone frames L (nb x 12, the linear
+ * blend's on entry) of input frame c replaced by eq. 9's from the gradients blended at weight h. */
+void mdl__gblend_splice(mdl__vblend *b, const struct mdl_variations *v, int i, int j, double h);
+void mdl__gblend_local(const mdl__vblend *b, const struct mdl_variations *v, int c, double h,
+                       double *L);
 
 /* walk.c: an endless random walk, one output frame per step (no allocation after init). */
 typedef struct mdl__vwalk {

@@ -2,7 +2,8 @@
 # test_variations.sh - `meshsteer variations` end to end (Zheng 2013, model/variations/): usage,
 # a model without a skin refused, on the built-in example's skin N PC2 files of F frames that are
 # the same for the same seed and differ across seeds, with no frame-to-frame vertex jump above 3x
-# the example's own, and the blend lowers the acceleration at transitions; --add-to makes a
+# the example's own, and the blend (gradient, the default, and linear) lowers the acceleration at
+# transitions; --blend N (the old window option) refused naming --blend-frames; --add-to makes a
 # model's skin walk; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames
 # with the same bound, one component joining only corresponding frames, components auto walking
 # the tail apart (contact sheets of 4 variations: $MESHSTEER_SHEETS or the scratch directory),
@@ -49,9 +50,18 @@ expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 2 --frames 100 
 # with no blend
 expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --tc-factor 40 -o "$dir/c8" --json
 acc8=$(json_num "$dir/out" transition_max_accel)
-expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --tc-factor 40 --blend 0 -o "$dir/c" --json
+grep -q '"blend":[[:space:]]*"gradient"' "$dir/out" || fail "--json does not say the gradient blend ran"
+[ "$(json_num "$dir/out" key_vertices)" -gt 0 ] || fail "the gradient blend has no key vertices"
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --tc-factor 40 --blend linear -o "$dir/c8l" --json
+accl=$(json_num "$dir/out" transition_max_accel)
+grep -q '"blend":[[:space:]]*"linear"' "$dir/out" || fail "--json does not say the linear blend ran"
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --tc-factor 40 --blend-frames 0 -o "$dir/c" --json
 acc0=$(json_num "$dir/out" transition_max_accel)
-echo "example (T_c 40 x max D(i, i-1)): largest acceleration near a transition $acc8 blended, $acc0 not" \
+grep -q '"blend":[[:space:]]*"none"' "$dir/out" || fail "--json does not say no blend ran"
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 10 --blend 8 -o "$dir/c"
+grep -q -- "--blend-frames" "$dir/err" || fail "--blend 8 is not refused naming --blend-frames"
+awk -v a="$accl" -v b="$acc0" 'BEGIN { exit !(a < b) }' || fail "the linear blend does not smooth: $accl vs $acc0"
+echo "example (T_c 40 x max D(i, i-1)): largest acceleration near a transition $acc8 gradient-blended, $accl linear, $acc0 not" \
      "(the example's 99th percentile $(json_num "$dir/a.json" example_p99_accel), largest $(json_num "$dir/a.json" example_max_accel));" \
      "at the default T_c $(json_num "$dir/a.json" transition_max_accel)"
 awk -v a="$acc8" -v b="$acc0" 'BEGIN { exit !(a < b) }' || fail "the blend does not smooth: $acc8 vs $acc0"
@@ -107,10 +117,13 @@ expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --json
 [ "$(json_num "$dir/out" transitions)" -gt 0 ] || fail "--add-to --json: no transitions"
 expect_status 0 "$ms" inspect "$dir/both.msm"
 grep -q "steer (primary), skin" "$dir/out" || { cat "$dir/out"; fail "inspect does not list both kinds"; }
-grep -q "endless random walk.*seed 9, components auto" "$dir/out" || { cat "$dir/out"; fail "the skin does not walk (components auto)"; }
+grep -q "endless random walk.*seed 9, components auto, blend gradient" "$dir/out" || { cat "$dir/out"; fail "the skin does not walk (components auto, the gradient blend)"; }
 expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --components 1 --ground
 expect_status 0 "$ms" inspect "$dir/both.msm"
-grep -q "endless random walk.*seed 9, components 1, ground" "$dir/out" || { cat "$dir/out"; fail "--add-to did not keep --components 1 --ground"; }
+grep -q "endless random walk.*seed 9, components 1, ground, blend gradient" "$dir/out" || { cat "$dir/out"; fail "--add-to did not keep --components 1 --ground"; }
+expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --blend linear
+expect_status 0 "$ms" inspect "$dir/both.msm"
+grep -q "endless random walk.*seed 9, components auto, blend linear" "$dir/out" || { cat "$dir/out"; fail "--add-to did not keep --blend linear"; }
 
 horse=$data/meshes/horse-gallop
 if [ ! -d "$horse" ]; then echo "skip: $horse not found (real-data part)"; exit 0; fi
@@ -157,9 +170,14 @@ expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600
     --start 20 --end 150 -o "$dir/s" --json
 cp "$dir/out" "$dir/s.json"
 fe=$(json_num "$dir/s.json" floor_excursion) acc=$(json_num "$dir/s.json" transition_accel_ratio)
+grep -q '"blend":[[:space:]]*"gradient"' "$dir/s.json" || fail "samba: the gradient blend did not run"
+expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 --ground \
+    --start 20 --end 150 --blend linear --pc2 4 -o "$dir/sl" --json
+accl=$(json_num "$dir/out" transition_accel_ratio)
+rm -rf "$dir/sl"
 echo "samba: $(json_num "$dir/s.json" transitions) transitions, $(json_num "$dir/s.json" component_count)" \
      "component(s); lowest vertex outside the example's range by $fe m with --ground ($drift without);" \
-     "transition acceleration $acc x the example's p99; targets met by $(json_num "$dir/s.json" targets_met) of 4;" \
+     "transition acceleration $acc x the example's p99 with the gradient blend ($accl linear); targets met by $(json_num "$dir/s.json" targets_met) of 4;" \
      "analysis $(json_num "$dir/s.json" analysis_s) s"
 le "$fe" 0.02 || fail "samba --ground: the lowest vertex leaves the floor by $fe m"
 le "$acc" 1.5 || fail "samba: transition acceleration $acc x the example's 99th percentile"

@@ -144,9 +144,9 @@ static void test_play(void)
     ASSERT_OK(mdl_model_save(m, path, err), err);
     mdl_model *m2 = NULL;
     ASSERT_OK(mdl_model_load(path, &m2, err), err);
-    /* the trailer (84 bytes, last in the SKIN chunk before the 8-byte END chunk) is checked: a
-     * version other than 1 or 2, a jump_prob above 1 or a ground flag of 2 is refused with a
-     * message */
+    /* the trailer (88 bytes, last in the SKIN chunk before the 8-byte END chunk) is checked: a
+     * version other than 1, 2 or 3, a jump_prob above 1, a ground or blend_linear flag of 2 is
+     * refused with a message; a version-2 trailer (no blend_linear) reads as the linear blend */
     FILE *fp = fopen(path, "rb");
     ASSERT(fp != NULL);
     fseek(fp, 0, SEEK_END);
@@ -156,19 +156,48 @@ static void test_play(void)
     ASSERT(fread(buf, 1, (size_t)len, fp) == (size_t)len);
     fclose(fp);
     remove(path);
-    size_t tr = (size_t)len - 8 - 84;
-    ASSERT_INT_EQ(buf[tr], 2);
+    size_t tr = (size_t)len - 8 - 88;
+    ASSERT_INT_EQ(buf[tr], 3);
+    ASSERT_INT_EQ(buf[tr + 84], 0); /* the gradient blend */
     mdl_model *bad = NULL;
-    buf[tr] = 3;
+    buf[tr] = 4;
     ASSERT_INT_NE(mdl_model_parse(buf, (size_t)len, "flag", &bad, err), 0);
-    printf("trailer version 3: %s\n", err);
+    printf("trailer version 4: %s\n", err);
     ASSERT(strstr(err, "variations flag") != NULL);
-    buf[tr] = 2;
+    buf[tr] = 3;
     buf[tr + 80] = 2; /* ground */
     ASSERT_INT_NE(mdl_model_parse(buf, (size_t)len, "ground", &bad, err), 0);
     printf("ground 2: %s\n", err);
     ASSERT(strstr(err, "variations ground") != NULL);
     buf[tr + 80] = 1;
+    buf[tr + 84] = 2; /* blend_linear */
+    ASSERT_INT_NE(mdl_model_parse(buf, (size_t)len, "blend", &bad, err), 0);
+    printf("blend_linear 2: %s\n", err);
+    ASSERT(strstr(err, "variations blend_linear") != NULL);
+    buf[tr + 84] = 0;
+    { /* version 2: the same file without the last u32, the SKIN chunk 4 bytes shorter */
+        uint8_t *b2 = malloc((size_t)len - 4);
+        memcpy(b2, buf, tr + 84);
+        memcpy(b2 + tr + 84, buf + tr + 88, 8);
+        b2[tr] = 2;
+        size_t at = tr;
+        while (at > 0 && memcmp(b2 + at, "SKIN", 4) != 0)
+            at--;
+        ASSERT(at > 0);
+        uint32_t clen;
+        memcpy(&clen, b2 + at + 4, 4);
+        clen -= 4;
+        memcpy(b2 + at + 4, &clen, 4);
+        mdl_model *m3 = NULL;
+        ASSERT_OK(mdl_model_parse(b2, (size_t)len - 4, "v2", &m3, err), err);
+        mdl_variations_opts o3;
+        ASSERT_INT_EQ(mdl_variations_attached(m3, &o3, NULL), 1);
+        ASSERT_INT_EQ(o3.blend_linear, 1);
+        ASSERT_INT_EQ(o3.ground, 1);
+        printf("a version-2 trailer reads as the linear blend\n");
+        mdl_model_destroy(m3);
+        free(b2);
+    }
     double big = 2;
     memcpy(buf + tr + 4 + 3 * 8 + 2 * 4, &big, sizeof big); /* jump_prob */
     ASSERT_INT_NE(mdl_model_parse(buf, (size_t)len, "jump", &bad, err), 0);
@@ -182,6 +211,7 @@ static void test_play(void)
     ASSERT(seed == 42);
     ASSERT_NEAR(o2.jump_prob, 0.5, 0);
     ASSERT_INT_EQ(o2.blend, o.blend);
+    ASSERT_INT_EQ(o2.blend_linear, 0); /* the default, the gradient blend, kept (version 3) */
     ASSERT_INT_EQ(o2.components, 0);
     ASSERT_INT_EQ(o2.ground, 1);
     ASSERT_NEAR(o2.te_factor, 0.2, 0);
