@@ -508,7 +508,7 @@ void mdl_gltf_free(mdl_gltf *g);
  * transitions between frames whose reduced, rigid-invariant bone coordinates are close (Sec. 3.2),
  * spliced with the reference bone matched rigidly (eq. 7) and the other bones blended linearly in
  * its frame over a window (the comparison of Fig. 6), walked at random on the motion graph
- * (Sec. 3.4), meeting targeted frames; optionally per component between the cut nodes of the
+ * (Sec. 3.4), meeting targeted frames and avoiding static obstacles; optionally per component between the cut nodes of the
  * bone graph, merged by Algorithm 1 (Sec. 4). The output is bone transforms (compact, resolution-independent); vertices come from
  * the skin only when asked. docs/MODEL.md says where this departs from the paper. */
 typedef struct mdl_variations mdl_variations;
