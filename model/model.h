@@ -628,7 +628,8 @@ int mdl_variations_colliding_frames(const mdl_variations *v, const mdl_obstacle 
                                     const uint32_t *F, int nf, uint8_t *flags, char *err);
 /* Keeps every later walk of v (all components) off the frames with blocked[n] (and off frames
  * from which every walk must reach one): they leave the graph's alive frames. NULL: none
- * blocked. -ENOENT when no walk can go on any more. */
+ * blocked. With components, one that could then not go on at all keeps every frame. -ENOENT
+ * when no walk can go on any more (with components: in none of them). */
 int mdl_variations_block_frames(mdl_variations *v, const uint8_t *blocked, char *err);
 /* mdl_variations_walk_targets (V NULL) whose every output frame, skinned into V (scratch: nv x
  * 3), is tested against o (NULL: none); a walk with a colliding frame is discarded and the next

@@ -682,7 +682,10 @@ int cmd_variations(int argc, char **argv)
             avoid_max = redraws[i] > avoid_max ? redraws[i] : avoid_max;
             if (rcs[i]) {
                 status = rcs[i] == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
-                cli_fail(cmd, status, "%s", errs[i]);
+                if (rcs[i] == -EAGAIN && ob)
+                    cli_fail(cmd, status, "--avoid %s: variation %d: %s", avoidp[0], k, errs[i]);
+                else
+                    cli_fail(cmd, status, "%s", errs[i]);
                 bad = 1;
                 break;
             }

@@ -15,7 +15,9 @@
  * Input frames: each fitted frame skinned and tested (the labels); walks are kept off them by
  * leaving them out of the graph's alive frames (mdl__variations_alive: nor any frame from which
  * every walk must reach one), for the random walk, the targeted search and the start alike, and
- * per component the same frames. That is not enough: a splice moves the reference bone (eq. 7,
+ * per component the same frames; a component (Sec. 4) that no walk could keep off them keeps
+ * them (the frame may collide by another component's vertices: the horse's tail), and the
+ * output check decides. That is not enough: a splice moves the reference bone (eq. 7,
  * or on the ground plane), the blend makes frames that are in no input, and merged components
  * (Sec. 4) pair frames never seen together; so every output frame of a walk is skinned and
  * tested, and a walk with a colliding frame is discarded and walked again from another seed
@@ -155,12 +157,17 @@ int mdl_variations_colliding_frames(const mdl_variations *v, const mdl_obstacle 
 int mdl_variations_block_frames(mdl_variations *v, const uint8_t *blocked, char *err)
 {
     mdl__variations_alive(v, blocked);
+    int freed = 0;
     for (int c = 0; c < v->ncomp; c++) {
         mdl__variations_alive(v->comp[c].g, blocked);
-        if (v->comp[c].g->nalive < 1)
-            return mdl__err(err, -ENOENT, "variations: component %d: every frame collides or "
-                            "leads only to colliding ones", c);
+        if (v->comp[c].g->nalive < 1) { /* this component cannot avoid the frames: it keeps them */
+            mdl__variations_alive(v->comp[c].g, NULL);
+            freed++;
+        }
     }
+    if (v->ncomp > 1 && freed == v->ncomp)
+        return mdl__err(err, -ENOENT, "variations: in every component, every frame collides or "
+                        "leads only to colliding ones");
     if (v->ncomp < 2 && v->nalive < 1)
         return mdl__err(err, -ENOENT, "variations: every frame collides or leads only to "
                         "colliding ones");
