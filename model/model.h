@@ -555,7 +555,7 @@ void mdl_gltf_free(mdl_gltf *g);
  * spliced with the reference bone matched rigidly (eq. 7) and the other bones blended over a
  * window in its frame, through the deformation gradients at key vertices (Sec. 3.3, eq. 8-9) or
  * linearly in their coordinates (the comparison of Fig. 6), walked at random on the motion graph
- * (Sec. 3.4), meeting targeted frames; optionally per component between the cut nodes of the
+ * (Sec. 3.4), meeting targeted frames and avoiding static obstacles; optionally per component between the cut nodes of the
  * bone graph, merged by Algorithm 1 (Sec. 4). The output is bone transforms (compact, resolution-independent); vertices come from
  * the skin only when asked. docs/MODEL.md says where this departs from the paper. */
 typedef struct mdl_variations mdl_variations;
@@ -659,6 +659,39 @@ double mdl_variations_overlap(const int *src_a, const int *src_b, int frames, in
 int mdl_variations_attach(mdl_model *m, const mdl_variations_opts *o, uint64_t seed, char *err);
 /* 1 when the skin of m walks (*o, *seed filled; either may be NULL), else 0. */
 int mdl_variations_attached(const mdl_model *m, mdl_variations_opts *o, uint64_t *seed);
+
+/* Collision avoidance against static objects (Sec. 3.4, variations/avoid.c). An obstacle: the
+ * triangles of meshes[0..n) together (in the skin's world frame), with an AABB tree over them
+ * (core/aabb_tree.c). -EINVAL when they hold no triangle. Read-only after create: any number of
+ * threads may test against one. */
+typedef struct mdl_obstacle mdl_obstacle;
+int mdl_obstacle_create(const mdl_mesh *const *meshes, int n, mdl_obstacle **out, char *err);
+void mdl_obstacle_destroy(mdl_obstacle *o);
+/* Its triangles and box (any argument may be NULL). */
+void mdl_obstacle_get_info(const mdl_obstacle *o, int *triangles, float lo[3], float hi[3]);
+/* 1 when the surface V (xyz) with triangles F (nf x 3) intersects the obstacle's: a triangle of
+ * each share a point (Möller's test, core/tri_tri.c; touching counts); else 0. Allocates
+ * nothing. */
+int mdl_obstacle_hits(const mdl_obstacle *o, const float *V, const uint32_t *F, int nf);
+/* flags[n] (the skin's frames) = 1 where fitted frame n, skinned, intersects o (F: the skin's
+ * triangles, nf of them). */
+int mdl_variations_colliding_frames(const mdl_variations *v, const mdl_obstacle *o,
+                                    const uint32_t *F, int nf, uint8_t *flags, char *err);
+/* Keeps every later walk of v (all components) off the frames with blocked[n] (and off frames
+ * from which every walk must reach one): they leave the graph's alive frames. NULL: none
+ * blocked. With components, one that could then not go on at all keeps every frame. -ENOENT
+ * when no walk can go on any more (with components: in none of them). */
+int mdl_variations_block_frames(mdl_variations *v, const uint8_t *blocked, char *err);
+/* mdl_variations_walk_targets (V NULL) whose every output frame, skinned into V (scratch: nv x
+ * 3), is tested against o (NULL: none); a walk with a colliding frame is discarded and the next
+ * seed (a function of `seed` and the try) walked, max_tries walks at most, then -EAGAIN.
+ * *used_seed gets the seed of the walk returned (mdl_variations_walk_targets with it gives the
+ * same frames) and *redraws the walks discarded (either may be NULL). */
+int mdl_variations_walk_avoiding(const mdl_variations *v, const mdl_obstacle *o,
+                                 const uint32_t *F, int nf, uint64_t seed, int frames,
+                                 const mdl_variations_target *targets, int nt, int max_tries,
+                                 double *T, int *src, float *V, uint64_t *used_seed, int *redraws,
+                                 char *err);
 
 /* A Python-style slice (frames.c) "start:stop[:step]" (also "N" and ":"), resolved against `count`.
  * Allocates *idx. */

@@ -5,9 +5,12 @@
  * caches of the skinned mesh, and with --json the graph's figures and, per variation, its largest
  * frame-to-frame vertex jump beside the example's own (the skin's fitted frames, skinned), the
  * largest vertex acceleration near its transitions beside the 99th percentile of the example's,
- * and its lowest vertex against the example's floor. The walks run in chunks on --threads
- * threads (cli_parallel_for); the overlap test, the files and the figures follow in order, so
- * the output does not depend on the thread count. */
+ * and its lowest vertex against the example's floor. With --avoid, the fitted frames that
+ * intersect the obstacle are kept out of the walks and every output frame is checked against it
+ * (model/variations/avoid.c), a walk with a colliding frame redrawn from a seed of its own. The
+ * walks run in chunks on --threads threads (cli_parallel_for; per worker one frame of scratch
+ * for the check, the obstacle's tree shared read-only); the overlap test, the files and the
+ * figures follow in order, so the output does not depend on the thread count. */
 #include "cli.h"
 
 #include <cjson/cJSON.h>
@@ -62,6 +65,12 @@ static const char usage_text[] =
     "                        --end met exactly, or an error when no walk can)\n"
     "  --ground              the most influential bone moves only on the ground plane at a\n"
     "                        transition (a turn about y, a horizontal shift: feet stay down)\n"
+    "  --avoid OBSTACLE.obj  a static obstacle (its triangles, in the skin's coordinates;\n"
+    "                        repeat for several files, up to 16: one obstacle): fitted frames\n"
+    "                        whose skinned mesh intersects it are kept out of every walk, and\n"
+    "                        a variation with an output frame that intersects it (a triangle\n"
+    "                        of each sharing a point) is walked again from another seed, 32\n"
+    "                        walks at most, then an error (Sec. 3.4)\n"
     "  --max-overlap F       a variation showing the same fitted frames as an earlier one on\n"
     "                        more than F of its frames is walked again with a new seed\n"
     "                        (Sec. 3.4; default 0.9; 1: never)\n"
@@ -96,7 +105,11 @@ static const char usage_text[] =
     "                        and per component the transitions taken as \"from>to ...\"\n"
     "                        (components_taken); also analysis_s, threads, targets,\n"
     "                        targets_met, overlap_redrawn, example_floor_min/max (variations\n"
-    "                        with a mesh only: the first K of --pc2)\n";
+    "                        with a mesh only: the first K of --pc2); with --avoid also\n"
+    "                        obstacle (files, triangles, box_min, box_max),\n"
+    "                        colliding_input_frames, colliding_input_count, collision_redrawn\n"
+    "                        (walks discarded in all), collision_redraws_max, collision_tries,\n"
+    "                        avoid_setup_s and per variation collision_redraws\n";
 
 static double max_jump(const float *V, int nv, int frames)
 {
@@ -262,15 +275,26 @@ typedef struct walk_batch {
     double *T;
     int *src, *rc;
     char (*err)[MDL_ERR_LEN];
+    /* --avoid: the obstacle, the mesh's triangles, per worker one frame's vertices (nv x 3) */
+    const mdl_obstacle *ob;
+    const uint32_t *F;
+    int nf, nv, *redraws;
+    float *scratch;
 } walk_batch;
+
+/* the walks of --avoid are redrawn at most this often (then an error) */
+enum { AVOID_TRIES = 32 };
 
 static void batch_body(void *ctx, int i, int worker)
 {
-    (void)worker;
     walk_batch *b = ctx;
-    b->rc[i] = mdl_variations_walk_targets(b->v, b->seeds[i], b->frames, b->t, b->nt,
-                                           b->T + (size_t)i * b->frames * b->nb * 12, NULL,
-                                           b->src + (size_t)i * b->frames * b->nc, b->err[i]);
+    b->redraws[i] = 0;
+    b->rc[i] = mdl_variations_walk_avoiding(b->v, b->ob, b->F, b->nf, b->seeds[i], b->frames, b->t,
+                                            b->nt, AVOID_TRIES,
+                                            b->T + (size_t)i * b->frames * b->nb * 12,
+                                            b->src + (size_t)i * b->frames * b->nc,
+                                            b->scratch + 3 * (size_t)b->nv * worker, &b->seeds[i],
+                                            &b->redraws[i], b->err[i]);
 }
 
 /* The bone file (docs/FORMATS.md): header, then per variation u64 seed, frames x bones x 12
@@ -352,12 +376,14 @@ int cmd_variations(int argc, char **argv)
     int threads = (int)sysconf(_SC_NPROCESSORS_ONLN);
     double max_overlap = 0.9;
     mdl_variations_target targets[258];
+    const char *avoidp[16];
+    int navoid = 0;
     mdl_variations_opts vo;
     mdl_variations_opts_default(&vo);
     vo.components = 0;
     enum { O_MODEL = 256, O_COUNT, O_FRAMES, O_SEED, O_THRESH, O_TCF, O_BLEND, O_BLENDF, O_JUMP, O_TEMP,
            O_MINSEG, O_START, O_JSON, O_ADD, O_COMP, O_TEF, O_END, O_TARGET, O_THREADS, O_PC2,
-           O_OVERLAP, O_GROUND, O_GLTF };
+           O_OVERLAP, O_GROUND, O_GLTF, O_AVOID };
     static const struct option lo[] = {
         {"model", 1, 0, O_MODEL},         {"count", 1, 0, O_COUNT},   {"frames", 1, 0, O_FRAMES},
         {"seed", 1, 0, O_SEED},           {"threshold", 1, 0, O_THRESH},
@@ -367,7 +393,7 @@ int cmd_variations(int argc, char **argv)
         {"add-to", 1, 0, O_ADD},          {"components", 1, 0, O_COMP},
         {"te-factor", 1, 0, O_TEF},       {"end", 1, 0, O_END},       {"target", 1, 0, O_TARGET},
         {"ground", 0, 0, O_GROUND},       {"threads", 1, 0, O_THREADS},     {"pc2", 1, 0, O_PC2},       {"max-overlap", 1, 0, O_OVERLAP},
-        {"gltf", 0, 0, O_GLTF},
+        {"gltf", 0, 0, O_GLTF},           {"avoid", 1, 0, O_AVOID},
         {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -393,6 +419,11 @@ int cmd_variations(int argc, char **argv)
         case O_START: if (cli_parse_int(cmd, "--start", optarg, &vo.start)) return CLI_EXIT_USAGE; break;
         case O_JSON: json = 1; break;
         case O_GLTF: gltf = 1; break;
+        case O_AVOID:
+            if (navoid >= 16)
+                return cli_usage_error(cmd, "--avoid: 16 obstacle files at most");
+            avoidp[navoid++] = optarg;
+            break;
         case O_ADD: addto = optarg; break;
         case O_COMP:
             if (!strcmp(optarg, "auto"))
@@ -436,6 +467,9 @@ int cmd_variations(int argc, char **argv)
                                "--temperature, --min-segment, --start, --te-factor, --end, --threads, --pc2 or "
                                "--max-overlap out of range");
 
+    if (navoid && addto && !batch)
+        return cli_usage_error(cmd, "--avoid checks the batch's walks; the idle source of "
+                               "--add-to does not avoid obstacles");
     if (gltf && npc2 == 0)
         return cli_usage_error(cmd, "--gltf animates the variations --pc2 writes; --pc2 0 leaves none");
     char err[MDL_ERR_LEN] = "";
@@ -448,6 +482,10 @@ int cmd_variations(int argc, char **argv)
     cJSON *jo = NULL, *jvars = NULL;
     mdl_gltf *glb = NULL;
     char gpath[4096] = "";
+    mdl_obstacle *ob = NULL;
+    uint8_t *colliding = NULL;
+    float *scratch = NULL;
+    int *redraws = NULL;
     if (mdl_model_load(modelp, &model, err)) {
         cli_fail(cmd, status, "%s", err);
         goto out;
@@ -518,6 +556,54 @@ int cmd_variations(int argc, char **argv)
                               "variations %d", targets[k].in, targets[k].out, nskinframes, frames);
             goto out;
         }
+    /* --avoid (Sec. 3.4): the obstacle's tree, the colliding fitted frames kept out of the walks */
+    int ncolliding = 0;
+    double avoid_s = 0;
+    if (navoid) {
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        mdl_mesh *meshes[16] = {0};
+        rc = 0;
+        for (int k = 0; k < navoid && !rc; k++) {
+            rc = mdl_mesh_read_obj(avoidp[k], &meshes[k], err); /* the error names the file */
+            if (rc)
+                status = cli_fail(cmd, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE,
+                                  "--avoid: %s", err);
+        }
+        if (!rc && (rc = mdl_obstacle_create((const mdl_mesh *const *)meshes, navoid, &ob, err)))
+            status = cli_fail(cmd, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "--avoid %s: %s",
+                              avoidp[0], err);
+        for (int k = 0; k < navoid; k++)
+            mdl_mesh_destroy(meshes[k]);
+        if (rc)
+            goto out;
+        colliding = calloc(nskinframes, 1);
+        if (!colliding) {
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
+            goto out;
+        }
+        if ((rc = mdl_variations_colliding_frames(v, ob, info.F, info.nf, colliding, err))) {
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "%s", err);
+            goto out;
+        }
+        for (int n = 0; n < nskinframes; n++)
+            ncolliding += colliding[n];
+        for (int k = 0; k < ntargets; k++)
+            if (colliding[targets[k].in]) {
+                status = cli_fail(cmd, CLI_EXIT_USAGE, "target %d:%d: fitted frame %d intersects "
+                                  "the obstacle (--avoid %s)", targets[k].in, targets[k].out,
+                                  targets[k].in, avoidp[0]);
+                goto out;
+            }
+        if ((rc = mdl_variations_block_frames(v, colliding, err))) {
+            status = cli_fail(cmd, CLI_EXIT_USAGE, "--avoid %s: %s (%d of %d fitted frames "
+                              "intersect it)", avoidp[0], err, ncolliding, nskinframes);
+            goto out;
+        }
+        mdl_variations_get_stats(v, &st);
+        struct timespec t2;
+        clock_gettime(CLOCK_MONOTONIC, &t2);
+        avoid_s = (t2.tv_sec - t1.tv_sec) + 1e-9 * (t2.tv_nsec - t1.tv_nsec);
+    }
     if (npc2 < 0 || npc2 > count)
         npc2 = count;
     int ncomp = st.components, nb = st.bones;
@@ -532,6 +618,8 @@ int cmd_variations(int argc, char **argv)
     uint64_t *seeds = calloc(chunk, sizeof *seeds);
     int *rcs = calloc(chunk, sizeof *rcs);
     char(*errs)[MDL_ERR_LEN] = calloc(chunk, sizeof *errs);
+    redraws = calloc(chunk, sizeof *redraws);
+    scratch = malloc((size_t)(threads < 64 ? threads : 64) * info.nv * 3 * sizeof *scratch);
     char bpath[4096];
     snprintf(bpath, sizeof bpath, "%s/variations.bones", outdir);
     FILE *bf = fopen(bpath, "wb");
@@ -539,7 +627,8 @@ int cmd_variations(int argc, char **argv)
         jo = cJSON_CreateObject();
         jvars = cJSON_CreateArray();
     }
-    if (!T || !V || !src || !seeds || !rcs || !errs || !bf || (json && (!jo || !jvars)) ||
+    if (!T || !V || !src || !seeds || !rcs || !errs || !redraws || !scratch || !bf ||
+        (json && (!jo || !jvars)) ||
         bones_header(bf, count, frames, nb, ncomp, info.fps > 0 ? (float)info.fps : 30.0f)) {
         if (bf)
             status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory for %d frames", frames);
@@ -566,9 +655,10 @@ int cmd_variations(int argc, char **argv)
     double ej, ea, eamax, worst = 0, worst_acc = 0, floor_range[2], worst_floor = 0;
     example_motion(model, &ej, &ea, &eamax, floor_range);
     cli_pool pool = {threads};
-    walk_batch bt = {v, frames, nb, ncomp, ntargets, targets, seeds, T, NULL, rcs, errs};
+    walk_batch bt = {v, frames, nb, ncomp, ntargets, targets, seeds, T, NULL, rcs, errs,
+                     ob, info.F, info.nf, info.nv, redraws, scratch};
     uint64_t next_seed = (uint64_t)(unsigned)seed + (uint64_t)count;
-    int redrawn = 0, over = 0, met = 0, bad = 0;
+    int redrawn = 0, over = 0, met = 0, bad = 0, avoid_redrawn = 0, avoid_max = 0;
     for (int k0 = 0; k0 < count && !bad; k0 += chunk) {
         int n = count - k0 < chunk ? count - k0 : chunk;
         for (int i = 0; i < n; i++)
@@ -596,12 +686,20 @@ int cmd_variations(int argc, char **argv)
                     break;
                 seeds[i] = next_seed++;
                 redrawn++;
-                rcs[i] = mdl_variations_walk_targets(v, seeds[i], frames, targets, ntargets, Tk,
-                                                     NULL, sk, errs[i]);
+                int more = 0;
+                rcs[i] = mdl_variations_walk_avoiding(v, ob, info.F, info.nf, seeds[i], frames,
+                                                      targets, ntargets, AVOID_TRIES, Tk, sk,
+                                                      scratch, &seeds[i], &more, errs[i]);
+                redraws[i] += more;
             }
+            avoid_redrawn += redraws[i];
+            avoid_max = redraws[i] > avoid_max ? redraws[i] : avoid_max;
             if (rcs[i]) {
                 status = rcs[i] == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE;
-                cli_fail(cmd, status, "%s", errs[i]);
+                if (rcs[i] == -EAGAIN && ob)
+                    cli_fail(cmd, status, "--avoid %s: variation %d: %s", avoidp[0], k, errs[i]);
+                else
+                    cli_fail(cmd, status, "%s", errs[i]);
                 bad = 1;
                 break;
             }
@@ -686,6 +784,8 @@ int cmd_variations(int argc, char **argv)
                 cJSON_AddNumberToObject(e, "start", sk[0]);
                 cJSON_AddNumberToObject(e, "transitions_taken", taken);
                 cJSON_AddNumberToObject(e, "overlap", ov);
+                if (ob)
+                    cJSON_AddNumberToObject(e, "collision_redraws", redraws[i]);
                 cJSON_AddNumberToObject(e, "max_jump", j);
                 cJSON_AddNumberToObject(e, "floor_excursion", fe);
                 cJSON_AddNumberToObject(e, "max_jump_ratio", ej > 0 ? j / ej : 0);
@@ -762,6 +862,30 @@ int cmd_variations(int argc, char **argv)
         cJSON_AddNumberToObject(jo, "overlap_redrawn", redrawn);
         cJSON_AddNumberToObject(jo, "overlap_kept_over", over);
         cJSON_AddNumberToObject(jo, "pc2_written", npc2);
+        if (ob) {
+            int ntri;
+            float lo[3], hi[3];
+            mdl_obstacle_get_info(ob, &ntri, lo, hi);
+            cJSON *jb = cJSON_AddObjectToObject(jo, "obstacle");
+            cJSON *files = cJSON_AddArrayToObject(jb, "files");
+            for (int k = 0; files && k < navoid; k++)
+                cJSON_AddItemToArray(files, cJSON_CreateString(avoidp[k]));
+            cJSON_AddNumberToObject(jb, "triangles", ntri);
+            cJSON *bl = cJSON_AddArrayToObject(jb, "box_min"), *bh = cJSON_AddArrayToObject(jb, "box_max");
+            for (int c = 0; bl && bh && c < 3; c++) {
+                cJSON_AddItemToArray(bl, cJSON_CreateNumber(lo[c]));
+                cJSON_AddItemToArray(bh, cJSON_CreateNumber(hi[c]));
+            }
+            cJSON *cf = cJSON_AddArrayToObject(jo, "colliding_input_frames");
+            for (int n = 0; cf && n < nskinframes; n++)
+                if (colliding[n])
+                    cJSON_AddItemToArray(cf, cJSON_CreateNumber(n));
+            cJSON_AddNumberToObject(jo, "colliding_input_count", ncolliding);
+            cJSON_AddNumberToObject(jo, "collision_redrawn", avoid_redrawn);
+            cJSON_AddNumberToObject(jo, "collision_redraws_max", avoid_max);
+            cJSON_AddNumberToObject(jo, "collision_tries", AVOID_TRIES);
+            cJSON_AddNumberToObject(jo, "avoid_setup_s", avoid_s);
+        }
         cJSON_AddStringToObject(jo, "bones_file", bpath);
         if (glb)
             cJSON_AddStringToObject(jo, "gltf", gpath);
@@ -779,6 +903,10 @@ out:
     cJSON_Delete(jvars);
     cJSON_Delete(jo);
     mdl_gltf_free(glb);
+    mdl_obstacle_destroy(ob);
+    free(colliding);
+    free(scratch);
+    free(redraws);
     free(T);
     free(V);
     free(src);

@@ -282,9 +282,17 @@ static int find_transitions(struct mdl_variations *v, char *err)
     v->off[N] = n;
     v->ntrans = n;
     free(D);
-    /* alive: a successor (i + 1, or j + 1 of a transition (i, j)) is alive; fixed point from all */
+    mdl__variations_alive(v, NULL);
+    return 0;
+}
+
+void mdl__variations_alive(struct mdl_variations *v, const uint8_t *blocked)
+{
+    int N = v->nframes;
+    /* alive: a successor (i + 1, or j + 1 of a transition (i, j)) is alive; fixed point from all
+     * frames not blocked */
     for (int i = 0; i < N; i++)
-        v->alive[i] = 1;
+        v->alive[i] = !blocked || !blocked[i];
     for (int changed = 1; changed;) {
         changed = 0;
         for (int i = N - 1; i >= 0; i--) {
@@ -302,7 +310,6 @@ static int find_transitions(struct mdl_variations *v, char *err)
     v->nalive = 0;
     for (int i = 0; i < N; i++)
         v->nalive += v->alive[i];
-    return 0;
 }
 
 int mdl__variations_analyse(struct mdl_variations *v, char *err)

@@ -20,6 +20,8 @@
  *                  component's bones (eq. 14)
  *   target.c       Sec. 3.4: targeted frames (backward reachability, the walk restricted)
  *   overlap.c      Sec. 3.4: how much two walks overlap
+ *   avoid.c        Sec. 3.4: collision avoidance against a static obstacle (its AABB tree,
+ *                  core/aabb_tree.c; the triangle test, core/tri_tri.c)
  *
  * paper -> code:
  *   N frames, |B| bones   nframes, nb (the skin's fitted frames, in order, and its bones)
@@ -129,6 +131,9 @@ void mdl__gblend_fini(struct mdl_variations *g);
 int mdl__gblend_solve(const struct mdl_variations *g, const double *R, const double *X0,
                       double *X);
 
+/* transitions.c: alive and nalive of v's graph, frames with blocked[n] (nframes; NULL: none)
+ * left out (avoid.c keeps walks off colliding frames). */
+void mdl__variations_alive(struct mdl_variations *v, const uint8_t *blocked);
 /* components.c: v->comp from the bone graph of the skin (bone, w: nv x K). */
 int mdl__components_build(struct mdl_variations *v, const int *bone, const double *w,
                           const mdl__vskin *s, char *err);

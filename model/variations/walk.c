@@ -13,7 +13,8 @@
  * then transition k with chance w_k / sum w, spliced by blend.c; at the end of the example (or
  * before a frame without a future) one must be taken. The start frame is o.start or drawn from the seed.
  * Targeted frames restrict the choices (mdl__vwalk_step_to, target.c); the overlap test is
- * overlap.c; collision avoidance (Sec. 3.4) is not implemented.
+ * overlap.c; collision avoidance (Sec. 3.4, avoid.c) leaves colliding frames out of alive (so
+ * the walk never shows them) and checks the output frames.
  * Several components (Sec. 4, components.c): one walker per component on its own graph, each
  * with its own seed (mdl__vwalk_comp_seed) but from one common start frame (alive in every
  * component; the paper leaves the start open: a common one makes the merged animation begin as

@@ -7,10 +7,12 @@
 # model's skin walk; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames
 # with the same bound, one component joining only corresponding frames, components auto walking
 # the tail apart (contact sheets of 4 variations: $MESHSTEER_SHEETS or the scratch directory),
-# targeted frames, --threads, the bone file; then samba's --ground, targets and smoothness.
-# Usage: test_variations.sh MESHSTEER SRC DATA
+# targeted frames, --threads, the bone file; then samba's --ground, targets and smoothness, and
+# --avoid: a box where the dancer's hand passes in a walk is intersected by no output frame once
+# avoided (checked by PC2_BOX_HITS, tests/cli/pc2_box_hits.c, which shares no code with model/).
+# Usage: test_variations.sh MESHSTEER SRC DATA PC2_BOX_HITS
 set -euo pipefail
-ms=$1 src=$2 data=$3
+ms=$1 src=$2 data=$3 boxhits=$4
 source "$(dirname "$0")/lib.sh"
 # PC2: 32-byte header, then frames x points x 3 float32
 pc2_size() { echo $((32 + $1 * $2 * 12)); }
@@ -105,6 +107,26 @@ echo "example (period 75): --start 10 --end 54 --target 70:60 met by 6 of 6 vari
 expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --start 10 --end 40 -o "$dir/tg"
 grep -q "no walk meets the targets" "$dir/err" || fail "an impossible target is not refused"
 expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --target 3x -o "$dir/tg"
+# --avoid: a missing file, a file without triangles and an obstacle that every frame meets are
+# refused, naming the file
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --avoid "$dir/none.obj" -o "$dir/av"
+grep -q "none.obj" "$dir/err" || fail "--avoid: the error does not name the missing file"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\n' > "$dir/points.obj"
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --avoid "$dir/points.obj" -o "$dir/av"
+grep -q "points.obj: no faces" "$dir/err" || fail "--avoid: an obstacle without triangles is not refused"
+# box OBJ: box CX CY CZ HALF (an axis-aligned cube, 12 triangles)
+box() {
+    awk -v x="$1" -v y="$2" -v z="$3" -v h="$4" 'BEGIN {
+        for (k = 0; k < 8; k++)
+            printf "v %.6f %.6f %.6f\n", x + (k % 2 ? h : -h), y + (int(k / 2) % 2 ? h : -h), z + (int(k / 4) ? h : -h)
+        print "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6" }'
+}
+# a plane through every frame of the example's mesh (its bounding box's middle, wider than it)
+read -r cx cy cz < <(awk '/^v / { for (c = 2; c <= 4; c++) { if (!n || $c < lo[c]) lo[c] = $c; if (!n || $c > hi[c]) hi[c] = $c }; n++ }
+    END { print (lo[2] + hi[2]) / 2, (lo[3] + hi[3]) / 2, (lo[4] + hi[4]) / 2 }' "$dir/ex/mesh/$(ls "$dir/ex/mesh" | head -1)")
+printf 'v -100 %s -100\nv 100 %s -100\nv 0 %s 100\nf 1 2 3\n' "$cy" "$cy" "$cy" > "$dir/wall.obj"
+expect_status 2 "$ms" variations --model "$dir/skin.msm" --count 1 --frames 3 --avoid "$dir/wall.obj" -o "$dir/av"
+grep -q "wall.obj.*every frame collides" "$dir/err" || { cat "$dir/err"; fail "--avoid: an obstacle every frame meets is not refused"; }
 
 # --add-to: the skin beside a steering model walks (the daemon's idle source); a steering model
 # alone is refused
@@ -165,7 +187,58 @@ if [ ! -d "$samba" ]; then echo "skip: $samba not found"; echo "variations_cli: 
 expect_status 0 "$ms" skin --mesh "$samba/samba.pc2" --rest "$samba/rest.obj" --bones 40 -o "$dir/samba.msm"
 expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 -o "$dir/s0" --json
 drift=$(json_num "$dir/out" floor_excursion)
+# --avoid (the issue's done-when): a box of 8 cm where the dancer's hand (the vertex that travels
+# furthest in the example) is at output frame 300 of the first walk; without --avoid the same
+# walks meet it, with it no output frame of any variation does (pc2_box_hits: the solid box
+# against every triangle of every frame), and the bone file is the same on 1 and 2 threads
+read -r hand < <(python3 - "$samba/samba.pc2" <<'PY'
+import struct, sys
+b = open(sys.argv[1], 'rb').read()
+n, frames = struct.unpack_from('<i', b, 16)[0], struct.unpack_from('<i', b, 28)[0]
+a = struct.unpack_from('<%df' % (3 * n * frames), b, 32)
+path = [0.0] * n
+for f in range(1, frames):
+    for i in range(n):
+        o, p = 3 * (f * n + i), 3 * ((f - 1) * n + i)
+        path[i] += ((a[o] - a[p]) ** 2 + (a[o + 1] - a[p + 1]) ** 2 + (a[o + 2] - a[p + 2]) ** 2) ** 0.5
+print(max(range(n), key=lambda i: path[i]))
+PY
+)
+read -r hx hy hz < <(python3 - "$dir/s0/variation_000.pc2" "$hand" <<'PY'
+import struct, sys
+b = open(sys.argv[1], 'rb').read()
+n, i, f = struct.unpack_from('<i', b, 16)[0], int(sys.argv[2]), 300
+print(*struct.unpack_from('<3f', b, 32 + 12 * (f * n + i)))
+PY
+)
+box "$hx" "$hy" "$hz" 0.04 > "$dir/hand_box.obj"
+bounds=$(awk -v x="$hx" -v y="$hy" -v z="$hz" 'BEGIN { h = 0.04; print x - h, y - h, z - h, x + h, y + h, z + h }')
+hits0=0
+for k in 000 001 002 003; do
+    "$boxhits" "$dir/s0/variation_$k.pc2" "$samba/rest.obj" $bounds > "$dir/hits" || fail "pc2_box_hits failed"
+    hits0=$((hits0 + $(awk '{ print $4 }' "$dir/hits")))
+done
+[ "$hits0" -gt 0 ] || fail "samba: the box at the hand (vertex $hand) meets no frame without --avoid"
 rm -rf "$dir/s0"
+expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 --avoid "$dir/hand_box.obj" -o "$dir/sa" --json
+cp "$dir/out" "$dir/sa.json"
+hits1=0
+for k in 000 001 002 003; do
+    "$boxhits" "$dir/sa/variation_$k.pc2" "$samba/rest.obj" $bounds > "$dir/hits" || fail "pc2_box_hits failed"
+    hits1=$((hits1 + $(awk '{ print $4 }' "$dir/hits")))
+done
+echo "samba --avoid: a box of 8 cm at the hand (vertex $hand) of walk 0's output frame 300:" \
+     "$hits0 of 2400 output frames meet it without --avoid, $hits1 with it;" \
+     "$(json_num "$dir/sa.json" colliding_input_count) fitted frames collide, $(json_num "$dir/sa.json" alive_frames) of 175 alive," \
+     "$(json_num "$dir/sa.json" collision_redrawn) walks redrawn; $(json_num "$dir/sa.json" synth_s) s"
+[ "$hits1" = 0 ] || fail "samba --avoid: $hits1 output frames meet the box"
+[ "$(json_num "$dir/sa.json" triangles)" = 12 ] || fail "samba --avoid: --json does not report the box's 12 triangles"
+grep -q '"colliding_input_frames"' "$dir/sa.json" || fail "samba --avoid: no colliding_input_frames in --json"
+rm -rf "$dir/sa"
+expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 --avoid "$dir/hand_box.obj" --threads 1 --pc2 0 -o "$dir/sa1"
+expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 --avoid "$dir/hand_box.obj" --threads 2 --pc2 0 -o "$dir/sa2"
+cmp -s "$dir/sa1/variations.bones" "$dir/sa2/variations.bones" || fail "samba --avoid: --threads 1 and 2 differ"
+rm -rf "$dir/sa1" "$dir/sa2"
 expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 --ground \
     --start 20 --end 150 -o "$dir/s" --json
 cp "$dir/out" "$dir/s.json"
