@@ -582,7 +582,7 @@ typedef struct mdl_variations_opts {
 } mdl_variations_opts;
 
 /* svd_tol 0.005, tc_factor 1/40 (the paper prints 40; docs/MODEL.md says why not), threshold 0,
- * min_gap 3, blend 8, blend_linear 0 (gradient), jump_prob 0.2, temperature 0.1, min_segment 8, start -1, components 1,
+ * min_gap 3, blend 8, blend_linear 1 (linear: as smooth as the gradient blend on every sequence measured, at 1/40 of its cost; docs/MODEL.md), jump_prob 0.2, temperature 0.1, min_segment 8, start -1, components 1,
  * te_factor 0.1, ground 0 (the paper's values where it gives them). */
 void mdl_variations_opts_default(mdl_variations_opts *o);
 

@@ -45,7 +45,7 @@ void mdl_variations_opts_default(mdl_variations_opts *o)
     o->threshold = 0;
     o->min_gap = 3;
     o->blend = 8;
-    o->blend_linear = 0;
+    o->blend_linear = 1; /* the gradient blend is as smooth on our data at 40x the cost: MODEL.md */
     o->jump_prob = 0.2;
     o->temperature = 0.1;
     o->min_segment = 8;

@@ -2,7 +2,7 @@
 # test_variations.sh - `meshsteer variations` end to end (Zheng 2013, model/variations/): usage,
 # a model without a skin refused, on the built-in example's skin N PC2 files of F frames that are
 # the same for the same seed and differ across seeds, with no frame-to-frame vertex jump above 3x
-# the example's own, and the blend (gradient, the default, and linear) lowers the acceleration at
+# the example's own, and the blend (linear, the default, and gradient) lowers the acceleration at
 # transitions; --blend N (the old window option) refused naming --blend-frames; --add-to makes a
 # model's skin walk; then on horse-gallop (a 22-bone skin; skipped when absent) 4 x 336 frames
 # with the same bound, one component joining only corresponding frames, components auto walking
@@ -50,7 +50,7 @@ expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 2 --frames 100 
 # the linear blend smooths the transitions: with the same walks (same seeds) under the printed
 # loose T_c (40 x max D(i, i-1)), the largest vertex acceleration near a transition is lower than
 # with no blend
-expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --tc-factor 40 -o "$dir/c8" --json
+expect_status 0 "$ms" variations --model "$dir/skin.msm" --count 3 --frames 100 --seed 5 --tc-factor 40 --blend gradient -o "$dir/c8" --json
 acc8=$(json_num "$dir/out" transition_max_accel)
 grep -q '"blend":[[:space:]]*"gradient"' "$dir/out" || fail "--json does not say the gradient blend ran"
 [ "$(json_num "$dir/out" key_vertices)" -gt 0 ] || fail "the gradient blend has no key vertices"
@@ -139,13 +139,13 @@ expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --json
 [ "$(json_num "$dir/out" transitions)" -gt 0 ] || fail "--add-to --json: no transitions"
 expect_status 0 "$ms" inspect "$dir/both.msm"
 grep -q "steer (primary), skin" "$dir/out" || { cat "$dir/out"; fail "inspect does not list both kinds"; }
-grep -q "endless random walk.*seed 9, components auto, blend gradient" "$dir/out" || { cat "$dir/out"; fail "the skin does not walk (components auto, the gradient blend)"; }
+grep -q "endless random walk.*seed 9, components auto, blend linear" "$dir/out" || { cat "$dir/out"; fail "the skin does not walk (components auto, the linear blend by default)"; }
 expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --components 1 --ground
 expect_status 0 "$ms" inspect "$dir/both.msm"
-grep -q "endless random walk.*seed 9, components 1, ground, blend gradient" "$dir/out" || { cat "$dir/out"; fail "--add-to did not keep --components 1 --ground"; }
-expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --blend linear
+grep -q "endless random walk.*seed 9, components 1, ground, blend linear" "$dir/out" || { cat "$dir/out"; fail "--add-to did not keep --components 1 --ground"; }
+expect_status 0 "$ms" variations --add-to "$dir/both.msm" --seed 9 --blend gradient
 expect_status 0 "$ms" inspect "$dir/both.msm"
-grep -q "endless random walk.*seed 9, components auto, blend linear" "$dir/out" || { cat "$dir/out"; fail "--add-to did not keep --blend linear"; }
+grep -q "endless random walk.*seed 9, components auto, blend gradient" "$dir/out" || { cat "$dir/out"; fail "--add-to did not keep --blend gradient"; }
 
 horse=$data/meshes/horse-gallop
 if [ ! -d "$horse" ]; then echo "skip: $horse not found (real-data part)"; exit 0; fi
@@ -240,7 +240,7 @@ expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600
 cmp -s "$dir/sa1/variations.bones" "$dir/sa2/variations.bones" || fail "samba --avoid: --threads 1 and 2 differ"
 rm -rf "$dir/sa1" "$dir/sa2"
 expect_status 0 "$ms" variations --model "$dir/samba.msm" --count 4 --frames 600 --ground \
-    --start 20 --end 150 -o "$dir/s" --json
+    --start 20 --end 150 --blend gradient -o "$dir/s" --json
 cp "$dir/out" "$dir/s.json"
 fe=$(json_num "$dir/s.json" floor_excursion) acc=$(json_num "$dir/s.json" transition_accel_ratio)
 grep -q '"blend":[[:space:]]*"gradient"' "$dir/s.json" || fail "samba: the gradient blend did not run"

@@ -1,5 +1,6 @@
 /* bench_variations.c - Zheng 2013 synthesis speed (issue 11; a benchmark, not a timed test).
- * On samba's skin (40 bones, 4 influences; fitted here, untimed, or read from argv[1]):
+ * On samba's skin (40 bones, 4 influences; fitted here, untimed, or read from argv[1]), with the
+ * default (linear) blend or, when argv[2] is "gradient", Sec. 3.3's:
  *   analysis   mdl_variations_build (transitions; with components auto also the bone graph and
  *              the components' graphs), median and p99 of 9 runs
  *   synthesis  1000 variations x 600 frames, bone motions only (mdl_variations_walk, no
@@ -100,6 +101,8 @@ static double synth(const mdl_variations *v, const double *Tfit, int nb, int nfi
 
 int main(int argc, char **argv)
 {
+    /* argv[2] "gradient": Sec. 3.3's blend instead of the default (linear) */
+    int gradient = argc > 2 && !strcmp(argv[2], "gradient");
     mdl_set_blas_threads(1);
     char err[MDL_ERR_LEN] = "";
     mdl_model *m = NULL;
@@ -119,6 +122,7 @@ int main(int argc, char **argv)
         mdl_variations_opts o;
         mdl_variations_opts_default(&o);
         o.components = comps;
+        o.blend_linear = !gradient;
         double at[9];
         mdl_variations *v = NULL;
         for (int r = 0; r < 9; r++) {

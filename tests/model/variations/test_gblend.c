@@ -179,7 +179,11 @@ static void test_looping(void)
     mdl_model *m = NULL;
     ASSERT_OK(mdl_skin_fit(s, idx, 90, &so, &m, err), err);
     mdl_variations *v = NULL;
-    ASSERT_OK(mdl_variations_build(m, NULL, &v, err), err); /* the default: gradient */
+    mdl_variations_opts og;
+    mdl_variations_opts_default(&og);
+    ASSERT_INT_EQ(og.blend_linear, 1); /* the default: linear (docs/MODEL.md) */
+    og.blend_linear = 0;
+    ASSERT_OK(mdl_variations_build(m, &og, &v, err), err);
     ASSERT_INT_EQ(v->o.blend_linear, 0);
     check_graph(v, "looping");
     double tol = 0;

@@ -139,6 +139,7 @@ static void test_play(void)
     o.components = 0; /* auto, and --ground: kept in the file (the trailer's version 2) */
     o.ground = 1;
     o.te_factor = 0.2;
+    o.blend_linear = 0; /* the gradient blend, not the default: kept (version 3) */
     ASSERT_OK(mdl_variations_attach(m, &o, 42, err), err);
     const char *path = "test_walk_vars.msm";
     ASSERT_OK(mdl_model_save(m, path, err), err);
@@ -211,7 +212,7 @@ static void test_play(void)
     ASSERT(seed == 42);
     ASSERT_NEAR(o2.jump_prob, 0.5, 0);
     ASSERT_INT_EQ(o2.blend, o.blend);
-    ASSERT_INT_EQ(o2.blend_linear, 0); /* the default, the gradient blend, kept (version 3) */
+    ASSERT_INT_EQ(o2.blend_linear, 0); /* the gradient blend, kept (version 3) */
     ASSERT_INT_EQ(o2.components, 0);
     ASSERT_INT_EQ(o2.ground, 1);
     ASSERT_NEAR(o2.te_factor, 0.2, 0);
