@@ -218,6 +218,7 @@ static void test_horse(void)
     mdl_variations_opts o;
     mdl_variations_opts_default(&o);
     o.components = 0;
+    o.blend_linear = 0; /* the gradient blend (not the default) */
     mdl_variations *v = NULL;
     ASSERT_OK(mdl_variations_build(m, &o, &v, err), err);
     check_graph(v, "horse");
