@@ -13,6 +13,7 @@
  *   - the window's shape from the tridiagonal solve: h_0 = 1, h_L = 0, h'' = 0. */
 #include "model.h"
 #include "test.h"
+#include "fit.h"
 #include "looping.h"
 #include "variations/variations.h"
 
@@ -205,16 +206,7 @@ static void test_looping(void)
 static void test_horse(void)
 {
     char err[MDL_ERR_LEN] = "";
-    const char *p = test_data("meshes/horse-gallop");
-    mdl_meshseq *s = NULL;
-    ASSERT_OK(mdl_meshseq_read(p, NULL, &s, err), err);
-    int *idx = NULL, n = 0;
-    ASSERT_OK(mdl_parse_frames(":", s->frames, &idx, &n, err), err);
-    mdl_skin_opts so;
-    mdl_skin_opts_default(&so);
-    so.bones = 22;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_skin_fit(s, idx, n, &so, &m, err), err);
+    mdl_model *m = vt_fit_skin("meshes/horse-gallop", NULL, 22);
     mdl_variations_opts o;
     mdl_variations_opts_default(&o);
     o.components = 0;
@@ -232,9 +224,7 @@ static void test_horse(void)
         check_graph(v->comp[c].g, name);
     }
     mdl_variations_destroy(v);
-    free(idx);
     mdl_model_destroy(m);
-    mdl_meshseq_destroy(s);
 }
 
 int main(void)
