@@ -627,6 +627,14 @@ static void steer_describe(const void *impl, const mdl_model *mm, char *buf, siz
     mdl__appendf(buf, len, at, "synthesis  beta %g, %d iterations, %d relaxation sweeps, marker weight %g, motion "
            "directions %s\n",
            m->beta, m->iterations, m->relax, m->marker_weight, m->use_motion_dir ? "on" : "off");
+    if (m->mfilt) {
+        mdl__appendf(buf, len, at, "filter     input markers for %g mm noise, alpha", 1000 * m->filter_noise);
+        for (int j = 0; j < m->nmarkers; j++)
+            mdl__appendf(buf, len, at, " %s %.2f", m->markers[j].name, m->mfilt[2 * j]);
+        mdl__appendf(buf, len, at, "\n");
+    } else {
+        mdl__appendf(buf, len, at, "filter     none\n");
+    }
     if (m->sel) {
         const mdl_select_cand *c = &m->sel->cand[m->sel->chosen];
         char rd[32];
