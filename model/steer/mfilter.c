@@ -19,7 +19,7 @@ void mdl__mfilter_train(const float *P, int frames, size_t stride, int nm, doubl
             }
         double alpha = 1, beta = 0;
         if (sigma_n > 0 && n > 0) {
-            double lam = sqrt(s2 / n) / sigma_n;
+            double lam = fmax(sqrt(s2 / n) / sigma_n, MDL_MFILTER_MIN_INDEX);
             double r = (4 + lam - sqrt(8 * lam + lam * lam)) / 4;
             alpha = 1 - r * r;
             beta = 2 * (2 - alpha) - 4 * sqrt(1 - alpha);

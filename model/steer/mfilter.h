@@ -17,6 +17,11 @@
  * the training frames. sigma_n is the noise the model is made for (the option selection's
  * validation noise, select.h); 0 switches the filter off (alpha = 1, beta = 0).
  *
+ * A marker that did not accelerate in training (lambda -> 0 gives alpha = beta = 0: the filter
+ * would never move again) is still followed: lambda >= MDL_MFILTER_MIN_INDEX, alpha >= 0.13, a
+ * time constant of about 8 frames. The people and the horse (docs/PERFORMANCE.md) have alpha >=
+ * 0.54 on every marker, so the bound does not act on them.
+ *
  * paper -> code: gain[2 j] = alpha_j, gain[2 j + 1] = beta_j.
  */
 #ifndef MESHSTEER_STEER_MFILTER_H
@@ -24,6 +29,8 @@
 
 #include <stddef.h>
 #include <stdint.h>
+
+#define MDL_MFILTER_MIN_INDEX 0.01
 
 /* Gains (nm x 2) from `frames` successive marker frames P (nm x 3 floats each, `stride` apart). */
 void mdl__mfilter_train(const float *P, int frames, size_t stride, int nm, double sigma_n,

@@ -65,6 +65,10 @@ int main(void)
         ASSERT(g[0] > 0 && g[0] < 0.5);
         ASSERT(g[2] > 0.9 && g[2] <= 1);
         ASSERT(g[1] >= 0 && g[3] >= 0 && g[1] < 2 && g[3] < 2);
+        float S[T * 3] = {0}; /* a marker that never moved is still followed */
+        double gs[2];
+        mdl__mfilter_train(S, T, 3, 1, 0.010, gs);
+        ASSERT(gs[0] > 0.1 && gs[1] > 0);
         double x[3], v[3];
         uint8_t init = 0;
         float z[3];
