@@ -287,7 +287,9 @@ static int train_frames(train_state *st, char *err)
         m->hd_mesh = mdl__calloc((size_t)nm * 4, sizeof *m->hd_mesh);
         if (!m->hd_mesh)
             return oom(err);
-        int rc = mdl__heading_train(st->Pv, T, (size_t)nm * 3, nm, m->ref, m->hd_mesh);
+        /* the noise the model is made for: the selection's (0 without it) */
+        double noise = !st->markers && st->opts->select_folds > 0 ? st->opts->select_noise : 0;
+        int rc = mdl__heading_train(st->Pv, T, (size_t)nm * 3, nm, m->ref, noise, m->hd_mesh);
         if (rc)
             return mdl__err(err, rc, "train: the heading fit failed (%d)", rc);
         m->axis_mesh = MDL_AXIS_FIT;
@@ -827,7 +829,7 @@ static int train_recording(train_state *st, char *err)
         m->hd_rec = mdl__calloc((size_t)nm * 4, sizeof *m->hd_rec);
         if (!m->hd_rec)
             return oom(err);
-        int rc = mdl__heading_train(st->Pm, FM, (size_t)nm * 3, nm, m->ref, m->hd_rec);
+        int rc = mdl__heading_train(st->Pm, FM, (size_t)nm * 3, nm, m->ref, 0, m->hd_rec);
         if (rc)
             return mdl__err(err, rc, "train: the recording's heading fit failed (%d)", rc);
         m->axis_rec = MDL_AXIS_FIT;

@@ -4,8 +4,9 @@
  * vertices of the odd ones:
  *   samba (rigs/samba-7.json) and pjump (rigs/pjump-7.json) beat the nearest-frame baseline.
  * The default options are chosen by the option selection (select.h) and include its input filter
- * (mfilter.h). Observed (docs/PERFORMANCE.md): samba 0.918, pjump 0.750 of the baseline; with
- * 10 mm noise 1.449 and 1.284 (before the selection: 0.90, 0.87; 2.35, 1.61). The goal of issue
+ * (mfilter.h), and the heading fit's weights allow for that noise (heading.h). Observed
+ * (docs/PERFORMANCE.md): samba 0.902, pjump 0.737 of the baseline; with 10 mm noise 1.412 and
+ * 1.262 (before the selection: 0.90, 0.87; 2.35, 1.61). The goal of issue
  * 12 (0.6 x, and below the baseline under noise) is not met yet; these bounds sit just above what
  * is observed, so that a regression fails. */
 #include "model.h"
@@ -51,7 +52,7 @@ static void run(const char *name, const char *pc2, const char *rest, const char 
 int main(void)
 {
     mdl_set_blas_threads(1);
-    run("samba-7", "meshes/samba/samba.pc2", "meshes/samba/rest.obj", "rigs/samba-7.json", 0.94, 1.50);
-    run("pjump-7", "meshes/pjump/pjump.pc2", "meshes/pjump/rest.obj", "rigs/pjump-7.json", 0.78, 1.33);
+    run("samba-7", "meshes/samba/samba.pc2", "meshes/samba/rest.obj", "rigs/samba-7.json", 0.93, 1.45);
+    run("pjump-7", "meshes/pjump/pjump.pc2", "meshes/pjump/rest.obj", "rigs/pjump-7.json", 0.76, 1.30);
     return 0;
 }
