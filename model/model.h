@@ -254,7 +254,9 @@ typedef struct mdl_train_opts {
     int noise_copies;      /* how many noisy copies of each training frame */
     int select_folds;      /* with virtual markers, the options left at -1 are chosen by
                               leave-a-block-out cross-validation over this many time blocks of
-                              the training frames (select.h); 0 = no selection (the defaults) */
+                              the training frames (select.h); 0 = no selection (the defaults).
+                              mdl_train_opts_default gives 0 (training of the built-in example in
+                              ~0.2 s instead of ~6 s CPU); `meshsteer train` defaults to 3 */
     double select_noise;   /* marker noise (m, per axis) of the selection's noisy validation */
     double filter_noise;   /* with virtual markers: the marker noise (m) synthesis filters its
                               input markers for (steer/mfilter.h); 0 = no filter; -1: selected

@@ -184,6 +184,7 @@ int cmd_train(int argc, char **argv)
     int per_bone = 8, fit_rest = 0;
     mdl_train_opts o;
     mdl_train_opts_default(&o);
+    o.select_folds = 3; /* the user's default: options chosen by the data (docs/MODEL.md) */
     mdl_marker_opts mo = {0, MDL_UP_AUTO, 0};
     enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
            O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP, O_LINEAR,

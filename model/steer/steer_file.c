@@ -176,7 +176,7 @@ void mdl__steer_save(const struct mdl_steer *m, mdl__wbuf *b)
 /* the trailer: the input filter's gains (mfilter.h), when the chunk has bytes left */
 static int parse_trailer(mdl__rbuf *b, struct mdl_steer *m)
 {
-    if (b->rc || b->at >= b->n)
+    if (b->rc || b->n - b->at < 4) /* none (fewer bytes are reported as not read) */
         return b->rc;
     if (mdl__get_int(b, "trailer version", 1, 1) != 1 || b->rc)
         return b->rc;

@@ -68,7 +68,7 @@ void mdl_train_opts_default(mdl_train_opts *o)
     o->align_samples = 16;
     o->train_noise = -1;
     o->noise_copies = 4;
-    o->select_folds = MDL_SELECT_FOLDS;
+    o->select_folds = 0; /* the library keeps training fast; `meshsteer train` sets MDL_SELECT_FOLDS */
     o->select_noise = MDL_SELECT_NOISE;
     o->filter_noise = -1;
     o->name = "model";

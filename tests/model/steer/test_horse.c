@@ -46,6 +46,7 @@ int main(void)
     ASSERT_OK(mdl_meshseq_read(test_data("meshes/horse-gallop"), NULL, &horse, err), err);
     mdl_train_opts o;
     mdl_train_opts_default(&o);
+    o.select_folds = 3; /* `meshsteer train`'s default: the option selection (select.h) */
     mdl_model *m = train(horse, "rigs/horse.json", "0:24:2", &o);
 
     mdl_eval_result r = eval(m, horse, "1:24:2", 0, 0);

@@ -24,7 +24,10 @@ static void run(const char *name, const char *pc2, const char *rest, const char 
     ASSERT_OK(mdl_parse_frames("0:120:2", s->frames, &tr, &ntr, err), err);
     ASSERT_OK(mdl_parse_frames("1:120:2", s->frames, &te, &nte, err), err);
     mdl_model *m;
-    ASSERT_OK(mdl_steer_train(s, tr, ntr, rig, NULL, NULL, &m, err), err);
+    mdl_train_opts o0;
+    mdl_train_opts_default(&o0);
+    o0.select_folds = 3; /* `meshsteer train`'s default: the option selection (select.h) */
+    ASSERT_OK(mdl_steer_train(s, tr, ntr, rig, NULL, &o0, &m, err), err);
     mdl_eval_opts o = {0, 0, 1};
     mdl_eval_result r;
     ASSERT_OK(mdl_eval_run(m, s, te, nte, &o, &r, err), err);

@@ -102,6 +102,8 @@ int main(void)
     ASSERT_OK(mdl_rig_read(test_src("rigs/horse.json"), horse->nv, &rig, err), err);
     mdl_train_opts o;
     mdl_train_opts_default(&o);
+    ASSERT_INT_EQ(o.select_folds, 0); /* the library's default: off */
+    o.select_folds = 3;               /* `meshsteer train`'s */
 
     /* the selection and its report */
     mdl_model *m = train(horse, rig, &o);
