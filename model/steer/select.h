@@ -3,31 +3,37 @@
  *
  * Procedure (with virtual markers only; a recording of another performer has no ground truth to
  * validate against, and keeps the defaults):
- *   1. The T training frames, in the order given, are cut into K contiguous blocks
- *      (K = opts->select_folds, fewer when a fold would keep under 3 frames or hold out under 2).
- *      Fold k trains on the other K - 1 blocks and validates on block k, so that the validation
- *      frames' temporal neighbours are not in its training set (only the two frames at each
- *      block boundary neighbour a training frame).
+ *   1. The T training frames, in the order given, are cut into time blocks of MDL_SELECT_BLOCK
+ *      frames; fold k (K = opts->select_folds, at most 8, fewer when a fold would keep under 3
+ *      frames) holds out the blocks b with b mod K = k and trains on the rest. A held-out frame's
+ *      temporal neighbour is held out with it, and the held-out blocks are spread over the whole
+ *      motion, so the validation interpolates between poses as the test frames do. (K contiguous
+ *      blocks were tried first: that validates extrapolation to an unseen part of the motion,
+ *      with errors 2-4x the test's, and always picked the stiffest options.)
  *   2. Validation of one candidate on one fold: the fold's model is driven by the rig vertices of
- *      the held-out frames in order (a fresh synthesis per block, as `meshsteer eval`), once clean
- *      and once with Gaussian marker noise of opts->select_noise metres per axis (a fixed seed per
- *      fold: deterministic); the error is eval.c's, the mean vertex distance after rigid alignment
- *      over the rest box diagonal, beside eval.c's nearest-frame baseline among the fold's own
- *      training frames fed the same (noisy) markers.
+ *      its held-out frames in order (one synthesis per pass; each block is warmed up, unscored, by
+ *      the training frame before it), once clean and once with Gaussian marker noise of
+ *      opts->select_noise metres per axis (a fixed seed per fold: deterministic); the error is
+ *      eval.c's, the mean vertex distance after rigid alignment over the first training frame's
+ *      box diagonal, beside eval.c's nearest-frame baseline among the fold's own training frames
+ *      fed the same (noisy) markers.
  *   3. Score of a candidate = max(E_clean / B_clean, E_noisy / B_noisy), E and B summed over all
  *      held-out frames of all folds: the worse of the two ratios to the baseline, so that an
- *      option that wins clean but breaks under noise (motion directions) is not preferred.
+ *      option that wins clean but breaks under noise (motion directions on samba) is not chosen.
  *   4. Search, coordinate-wise from the defaults (each option left at -1 in opts; a value given
- *      is fixed and not searched), in this order, keeping the best score so far:
- *        motion directions off / on; radial basis / linear; ridge by leave-one-out / 1 (these
- *        three refit only the regressions of the fold's model, train.c mdl__steer_fit_regress);
- *        overlap rings 2 / 1 / 3; modes at most 6 / 3; parts at most 24 / 12 (these refit the
- *        fold's whole model).
- *      A candidate replaces the best only when its score is lower by more than 1 % (ties keep
+ *      is fixed and not searched), in this order, keeping the best so far:
+ *        input filter off / on at select_noise (mfilter.h); training noise 0 / select_noise / 2 /
+ *        select_noise; motion directions off / on; radial basis / linear; ridge by leave-one-out
+ *        / 1 (these refit only the regressions of the fold models, train.c
+ *        mdl__steer_fit_regress); overlap rings 2 / 1 / 3; modes at most 6 / 3; parts at most 24
+ *        / MDL_SELECT_FEW_PARTS (these rebuild the fold models on the fold's partition: the
+ *        clustering runs once per fold, and its state when it passed MDL_SELECT_FEW_PARTS parts is
+ *        the smaller partition, cluster.h mdl__cluster_snap).
+ *      A candidate replaces the best only when its score is lower by more than 1 % (near-ties keep
  *      the default, the simpler and already documented model).
  *   5. The chosen options are applied to a final fit on all training frames.
- * Cost: per fold one structural fit per structural candidate plus one regression refit per
- * regression candidate, and 2 x (held-out frames) synthesised frames per candidate.
+ * Cost: per fold one clustering, one structural fit per structural candidate and one regression
+ * refit per candidate, and 2 x (held-out frames + blocks) synthesised frames per candidate.
  */
 #ifndef MESHSTEER_STEER_SELECT_H
 #define MESHSTEER_STEER_SELECT_H
