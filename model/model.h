@@ -253,28 +253,45 @@ typedef void (*mdl_progress_fn)(void *ud, const char *stage, double fraction);
 
 typedef struct mdl_train_opts {
     int clusters;          /* 0 = automatic (Sec. 4.5) */
-    int max_clusters;      /* upper bound for the automatic choice */
+    int max_clusters;      /* upper bound for the automatic choice; -1: chosen by the selection
+                              (select.h) among 24 and 12, 24 without it. Fields marked "-1:
+                              selected" below work the same way: a value given is kept, -1 leaves
+                              it to the cross-validated selection (virtual markers only) */
     double rigid_tol;      /* automatic clustering stops when the RMS rigid-fit residual of every
                               cluster is below this fraction of the bounding-box diagonal */
-    int overlap_rings;     /* rings of neighbours added to each cluster (Sec. 4.5 overlaps) */
+    int overlap_rings;     /* rings of neighbours added to each cluster (Sec. 4.5 overlaps); -1:
+                              selected among 2, 1 and 3 (2 without selection) */
     double explained;      /* fraction of shape variance kept per cluster (Sec. 4.4) */
-    int max_modes;         /* upper bound on modes per cluster */
+    int max_modes;         /* upper bound on modes per cluster; -1: selected among 6 and 3 (6) */
     double ridge;          /* Tikhonov regularisation of Phi and Psi (eq. 5), on standardised inputs;
-                              < 0: chosen by leave-one-out error */
+                              -1: chosen by leave-one-out error, and with the selection also
+                              tried against a fixed 1 (stiffer where noise matters); -2: leave-one-
+                              out, never searched */
     int linear;            /* 1: the purely linear regression of eq. 5; 0: with radial basis
                               features (regress.h); -1: automatic, radial basis with virtual
                               markers (interpolating the example's own poses), linear with a
                               recording of another performer (smooth where the relation is loose) */
     double beta;           /* shape prior weight of eq. 7 */
     int iterations;        /* alternating rigid/shape iterations at synthesis (Sec. 5) */
-    int use_motion_dir;    /* include directions of movement d_m (Table 1) in the features */
+    int use_motion_dir;    /* include directions of movement d_m (Table 1) in the features; -1:
+                              selected (off without selection) */
     double marker_weight;  /* markers as alignment targets at synthesis (synth.c); < 0: automatic,
                               1 with virtual markers (they live in the mesh's space), else 0 */
     int relax;             /* alignment sweeps against all neighbours after the greedy pass */
     int align_samples;     /* shared vertices per instance used by alignment and eq. 7 (0: all) */
     double train_noise;    /* with virtual markers: standard deviation (m) of the marker noise the
-                              regressions are taught to ignore, by noisy copies of each frame */
+                              regressions are taught to ignore, by noisy copies of each frame;
+                              -1: selected among 0, select_noise / 2 and select_noise (0) */
     int noise_copies;      /* how many noisy copies of each training frame */
+    int select_folds;      /* with virtual markers, the options left at -1 are chosen by
+                              leave-a-block-out cross-validation over this many time blocks of
+                              the training frames (select.h); 0 = no selection (the defaults).
+                              mdl_train_opts_default gives 0 (training of the built-in example in
+                              ~0.2 s instead of ~6 s CPU); `meshsteer train` defaults to 3 */
+    double select_noise;   /* marker noise (m, per axis) of the selection's noisy validation */
+    double filter_noise;   /* with virtual markers: the marker noise (m) synthesis filters its
+                              input markers for (steer/mfilter.h); 0 = no filter; -1: selected
+                              between 0 and select_noise (0 without selection) */
     const char *name;      /* model name, stored in the file */
     mdl_progress_fn progress;
     void *progress_ud;

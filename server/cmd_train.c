@@ -26,25 +26,37 @@ static const char usage_text[] =
     "  --report FILE      write a JSON training report\n"
     "  --name NAME        model name stored in the file (default: the output file name)\n"
     "  --clusters N       number of near-rigid parts (default: automatic)\n"
-    "  --max-clusters N   upper bound for the automatic choice (default 24)\n"
+    "  --max-clusters N   upper bound for the automatic choice (default: selected, 24 or 12)\n"
     "  --rigid-tol F      automatic clustering target: RMS rigid residual per part as a fraction\n"
     "                     of the bounding-box diagonal (default 0.004)\n"
-    "  --overlap N        rings of overlap between parts (default 2)\n"
+    "  --overlap N        rings of overlap between parts (default: selected, 2, 1 or 3)\n"
     "  --explained F      shape variance kept per part (default 0.95)\n"
-    "  --max-modes N      shape modes per part at most (default 6)\n"
-    "  --ridge F          regression regularisation (default: chosen by leave-one-out)\n"
+    "  --max-modes N      shape modes per part at most (default: selected, 6 or 3)\n"
+    "  --ridge F          regression regularisation (default: leave-one-out per output, or 1,\n"
+    "                     selected)\n"
     "  --beta F           shape prior weight of eq. 7 (default 0.5)\n"
     "  --iterations N     alternating alignment/shape iterations at synthesis (default 1)\n"
     "  --motion-dir       include directions of movement in the marker parameters\n"
+    "  --no-motion-dir    do not (default: selected)\n"
     "  --linear           purely linear regressions (eq. 5; the default with --markers)\n"
-    "  --rbf              linear + radial basis regressions (the default with virtual markers)\n"
+    "  --rbf              linear + radial basis regressions (with virtual markers: selected)\n"
     "  --marker-weight F  markers as alignment targets at synthesis (default: 1 with virtual\n"
     "                     markers, 0 with a recording of another subject)\n"
     "  --relax N          alignment sweeps against all neighbours after the greedy pass (default 4)\n"
     "  --train-noise MM   with virtual markers: marker noise (mm) the regressions learn to\n"
-    "                     ignore from 4 noisy copies of each frame (default 0 = off)\n"
+    "                     ignore from 4 noisy copies of each frame (default: selected, 0, 5\n"
+    "                     or 10; 0 without selection)\n"
+    "  --filter-noise MM  with virtual markers: filter the input markers at synthesis for this\n"
+    "                     much noise, gains from each marker's training motion (docs/MODEL.md;\n"
+    "                     default: selected, 0 = off or the --cv-noise; off without selection)\n"
     "  --align-samples N  shared vertices per part used by alignment and shape steps (default\n"
     "                     16; 0 = all)\n"
+    "  --cv-folds K       with virtual markers, the options marked \"selected\" that are not given\n"
+    "                     are chosen by leave-a-block-out cross-validation over K time blocks\n"
+    "                     of the training frames, clean and with --cv-noise (docs/MODEL.md;\n"
+    "                     default 3; 0 = no selection: 24 parts, overlap 2, 6 modes, motion\n"
+    "                     directions off, rbf, leave-one-out ridge); --report lists them\n"
+    "  --cv-noise MM      marker noise of the noisy validation (default 10 mm)\n"
     "  --kind KIND        steer (default: the above) or harmonic (de Aguiar et al. 2007: a static\n"
     "                     mesh, the first frame of --mesh, animated by a template skeleton)\n"
     "harmonic options:\n"
@@ -172,12 +184,13 @@ int cmd_train(int argc, char **argv)
     int per_bone = 8, fit_rest = 0;
     mdl_train_opts o;
     mdl_train_opts_default(&o);
+    o.select_folds = 3; /* the user's default: options chosen by the data (docs/MODEL.md) */
     mdl_marker_opts mo = {0, MDL_UP_AUTO, 0};
     enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
            O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP, O_LINEAR,
            O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF, O_TNOISE, O_KIND, O_TEMPLATE, O_CORR, O_PERBONE,
-           O_FITREST };
-    double tnoise_mm = 0;
+           O_FITREST, O_NOMOTION, O_CVFOLDS, O_CVNOISE, O_FNOISE };
+    double tnoise_mm = -1, cvnoise_mm = 1000 * o.select_noise, fnoise_mm = -1;
     static const struct option lo[] = {
         {"mesh", 1, 0, 'm'},          {"rest", 1, 0, O_REST},         {"rig", 1, 0, O_RIG},
         {"markers", 1, 0, O_MARKERS}, {"frames", 1, 0, O_FRAMES},     {"output", 1, 0, 'o'},
@@ -189,7 +202,9 @@ int cmd_train(int argc, char **argv)
         {"linear", 0, 0, O_LINEAR},   {"marker-weight", 1, 0, O_MWEIGHT}, {"relax", 1, 0, O_RELAX},
         {"align-samples", 1, 0, O_SAMPLES}, {"rbf", 0, 0, O_RBF}, {"train-noise", 1, 0, O_TNOISE},
         {"kind", 1, 0, O_KIND}, {"template", 1, 0, O_TEMPLATE}, {"correspondences", 1, 0, O_CORR},
-        {"per-bone", 1, 0, O_PERBONE}, {"fit-rest", 0, 0, O_FITREST}, {0, 0, 0, 0}};
+        {"per-bone", 1, 0, O_PERBONE}, {"fit-rest", 0, 0, O_FITREST},
+        {"no-motion-dir", 0, 0, O_NOMOTION}, {"cv-folds", 1, 0, O_CVFOLDS},
+        {"cv-noise", 1, 0, O_CVNOISE}, {"filter-noise", 1, 0, O_FNOISE}, {0, 0, 0, 0}};
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "m:o:h", lo, NULL)) != -1) {
@@ -212,6 +227,10 @@ int cmd_train(int argc, char **argv)
         case O_BETA: if (cli_parse_double(cmd, "--beta", optarg, &o.beta)) return CLI_EXIT_USAGE; break;
         case O_ITER: if (cli_parse_int(cmd, "--iterations", optarg, &o.iterations)) return CLI_EXIT_USAGE; break;
         case O_MOTION: o.use_motion_dir = 1; break;
+        case O_NOMOTION: o.use_motion_dir = 0; break;
+        case O_CVFOLDS: if (cli_parse_int(cmd, "--cv-folds", optarg, &o.select_folds)) return CLI_EXIT_USAGE; break;
+        case O_FNOISE: if (cli_parse_double(cmd, "--filter-noise", optarg, &fnoise_mm)) return CLI_EXIT_USAGE; break;
+        case O_CVNOISE: if (cli_parse_double(cmd, "--cv-noise", optarg, &cvnoise_mm)) return CLI_EXIT_USAGE; break;
         case O_LINEAR: o.linear = 1; break;
         case O_RBF: o.linear = 0; break;
         case O_TNOISE: if (cli_parse_double(cmd, "--train-noise", optarg, &tnoise_mm)) return CLI_EXIT_USAGE; break;
@@ -246,14 +265,21 @@ int cmd_train(int argc, char **argv)
         return cli_usage_error(cmd, "--kind: '%s' is not steer or harmonic", kind);
     if (!mesh || !rigp || !outp)
         return cli_usage_error(cmd, "--mesh, --rig and -o are required (see --help)");
-    if (o.clusters < 0 || o.max_clusters < 1 || o.max_clusters > 1000 || !(o.rigid_tol > 0) ||
-        o.overlap_rings < 0 || o.overlap_rings > 10 || !(o.explained > 0 && o.explained <= 1) ||
-        o.max_modes < 0 || o.max_modes > 64 || !(o.beta >= 0) || o.iterations < 0 || o.iterations > 100 ||
+    if (o.clusters < 0 || (o.max_clusters != -1 && (o.max_clusters < 1 || o.max_clusters > 1000)) ||
+        !(o.rigid_tol > 0) || o.overlap_rings < -1 || o.overlap_rings > 10 ||
+        !(o.explained > 0 && o.explained <= 1) || o.max_modes < -1 || o.max_modes > 64 ||
+        o.select_folds < 0 || o.select_folds > 8 || !(o.beta >= 0) || o.iterations < 0 || o.iterations > 100 ||
         o.relax < 0 || o.relax > 100 || o.align_samples < 0 || !(o.marker_weight >= 0 || o.marker_weight == -1))
         return cli_usage_error(cmd, "an option is out of range (see --help)");
-    if (!(tnoise_mm >= 0 && tnoise_mm < 1000))
+    if (tnoise_mm != -1 && !(tnoise_mm >= 0 && tnoise_mm < 1000))
         return cli_usage_error(cmd, "--train-noise must be within 0..1000 mm");
-    o.train_noise = tnoise_mm / 1000.0;
+    o.train_noise = tnoise_mm == -1 ? -1 : tnoise_mm / 1000.0;
+    if (!(cvnoise_mm >= 0 && cvnoise_mm < 1000))
+        return cli_usage_error(cmd, "--cv-noise must be within 0..1000 mm");
+    o.select_noise = cvnoise_mm / 1000.0;
+    if (fnoise_mm != -1 && !(fnoise_mm >= 0 && fnoise_mm < 1000))
+        return cli_usage_error(cmd, "--filter-noise must be within 0..1000 mm");
+    o.filter_noise = fnoise_mm == -1 ? -1 : fnoise_mm / 1000.0;
     if (o.ridge != -1 && !(o.ridge >= 0))
         return cli_usage_error(cmd, "--ridge must be >= 0");
 

@@ -252,6 +252,15 @@ int mdl__cluster(const double *X, int T, int nv, const mdl_graph *g, int cluster
                  int max_clusters, double tol, int min_size, int *part, int *nparts,
                  double *part_rms, mdl_progress_fn progress, void *ud, char *err)
 {
+    return mdl__cluster_snap(X, T, nv, g, clusters, max_clusters, tol, min_size, part, nparts,
+                             part_rms, 0, NULL, NULL, NULL, progress, ud, err);
+}
+
+int mdl__cluster_snap(const double *X, int T, int nv, const mdl_graph *g, int clusters,
+                      int max_clusters, double tol, int min_size, int *part, int *nparts,
+                      double *part_rms, int snap_k, int *snap_part, int *snap_n,
+                      double *snap_rms, mdl_progress_fn progress, void *ud, char *err)
+{
     int kmax = clusters > 0 ? clusters : max_clusters;
     if (kmax < 1)
         kmax = 1;
@@ -297,7 +306,13 @@ int mdl__cluster(const double *X, int T, int nv, const mdl_graph *g, int cluster
         }
         if (progress)
             progress(ud, "clustering", (double)s.k / kmax);
-        if (s.k >= kmax || (clusters <= 0 && worst_rms <= tol))
+        int stop = s.k >= kmax || (clusters <= 0 && worst_rms <= tol);
+        if (snap_part && !*snap_n && (s.k >= snap_k || stop)) { /* where max_clusters = snap_k stops */
+            memcpy(snap_part, part, sizeof *part * (size_t)nv);
+            memcpy(snap_rms, part_rms, sizeof *part_rms * (size_t)s.k);
+            *snap_n = s.k;
+        }
+        if (stop)
             break;
         int before = s.k;
         split(&s, cw, verr);

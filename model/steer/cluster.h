@@ -15,4 +15,13 @@ int mdl__cluster(const double *X, int T, int nv, const mdl_graph *g, int cluster
                  int max_clusters, double tol, int min_size, int *part, int *nparts,
                  double *part_rms, mdl_progress_fn progress, void *ud, char *err);
 
+/* The same, and with snap_part non-NULL also the partition where a run with max_clusters = snap_k
+ * (clusters = 0) would have stopped: the loop splits one cluster at a time whatever the bound, so
+ * that run is a prefix of this one (snap_part nv ids, *snap_n clusters, snap_rms their residuals;
+ * *snap_n must be 0 on entry). The option selection (select.h) reads both from one run. */
+int mdl__cluster_snap(const double *X, int T, int nv, const mdl_graph *g, int clusters,
+                      int max_clusters, double tol, int min_size, int *part, int *nparts,
+                      double *part_rms, int snap_k, int *snap_part, int *snap_n,
+                      double *snap_rms, mdl_progress_fn progress, void *ud, char *err);
+
 #endif

@@ -61,7 +61,7 @@ int mdl__heading_frame(const float *P, const uint8_t *valid, int nm, const int *
 }
 
 int mdl__heading_train(const float *P, int frames, size_t stride, int nm, const int *ref,
-                       double *hd)
+                       double noise, double *hd)
 {
     double *B = mdl__calloc((size_t)frames * nm * 3, sizeof *B);
     double *C = mdl__calloc((size_t)nm * 4, sizeof *C); /* sums: xyz, squared norm */
@@ -124,7 +124,8 @@ int mdl__heading_train(const float *P, int frames, size_t stride, int nm, const 
                 m2 += hd[4 * j + c] * hd[4 * j + c];
             }
             double var = C[4 * j + 3] / n - m2;
-            hd[4 * j + 3] = 1.0 / ((var > 0 ? var : 0) + MDL_HEADING_EPS * MDL_HEADING_EPS);
+            hd[4 * j + 3] = 1.0 / ((var > 0 ? var : 0) + MDL_HEADING_EPS * MDL_HEADING_EPS +
+                                   3 * noise * noise);
         }
     }
     /* the gauge: the canonical configuration's own reference edge along e1, +Z made orthogonal

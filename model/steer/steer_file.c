@@ -13,6 +13,7 @@
 #include "steer/posefeat.h"
 #include "steer/steer_internal.h"
 #include "steer/heading.h"
+#include "steer/select.h"
 #include "formats/chunkio.h"
 #include "kind.h"
 #include "core/util.h"
@@ -67,6 +68,8 @@ void mdl__steer_free(struct mdl_steer *m)
             free(m->reg[l].coef);
         }
     free(m->reg);
+    free(m->sel);
+    free(m->mfilt);
     free(m->hd_mesh);
     free(m->hd_rec);
     free(m->order);
@@ -161,6 +164,31 @@ void mdl__steer_save(const struct mdl_steer *m, mdl__wbuf *b)
     mdl__put_i32s(b, m->blend_inst, (size_t)m->blend_off[m->nv]);
     mdl__put_i32s(b, m->blend_local, (size_t)m->blend_off[m->nv]);
     mdl__put_f32s(b, m->blend_w, (size_t)m->blend_off[m->nv]);
+    /* the trailer (only with the input filter, mfilter.h): u32 version 1, f64 filter noise,
+     * nmarkers x (alpha, beta) f64 */
+    if (m->mfilt) {
+        mdl__put_u32(b, 1);
+        mdl__put_f64(b, m->filter_noise);
+        mdl__put_f64s(b, m->mfilt, 2 * (size_t)m->nmarkers);
+    }
+}
+
+/* the trailer: the input filter's gains (mfilter.h), when the chunk has bytes left */
+static int parse_trailer(mdl__rbuf *b, struct mdl_steer *m)
+{
+    if (b->rc || b->n - b->at < 4) /* none (fewer bytes are reported as not read) */
+        return b->rc;
+    if (mdl__get_int(b, "trailer version", 1, 1) != 1 || b->rc)
+        return b->rc;
+    m->filter_noise = mdl__get_f64(b, "filter noise");
+    if (!b->rc && !(m->filter_noise > 0 && m->filter_noise < 1))
+        return mdl__rfail(b, "the input filter's noise is not within (0, 1) m");
+    m->mfilt = mdl__get_f64s(b, 2 * (size_t)m->nmarkers, "input filter gains");
+    for (int j = 0; j < m->nmarkers && !b->rc; j++)
+        if (!(m->mfilt[2 * j] > 0 && m->mfilt[2 * j] <= 1 && m->mfilt[2 * j + 1] >= 0 &&
+              m->mfilt[2 * j + 1] < 2))
+            mdl__rfail(b, "an input filter gain is outside alpha (0, 1], beta [0, 2)");
+    return b->rc;
 }
 
 /* ------------------------------------------------------------------ reading */
@@ -530,7 +558,7 @@ int mdl__steer_parse(mdl__rbuf *b, const mdl_model *mm, int v1, struct mdl_steer
     if (v1 && parse_mesh_v1(b, m))
         goto bad;
     if (parse_training(b, m, mm, v1) || parse_parts(b, m) || parse_limbs(b, m) ||
-        parse_precompute(b, m) || check_local_indices(b, m))
+        parse_precompute(b, m) || check_local_indices(b, m) || (!v1 && parse_trailer(b, m)))
         goto bad;
     if (b->rc)
         goto bad;
@@ -599,6 +627,24 @@ static void steer_describe(const void *impl, const mdl_model *mm, char *buf, siz
     mdl__appendf(buf, len, at, "synthesis  beta %g, %d iterations, %d relaxation sweeps, marker weight %g, motion "
            "directions %s\n",
            m->beta, m->iterations, m->relax, m->marker_weight, m->use_motion_dir ? "on" : "off");
+    if (m->mfilt) {
+        mdl__appendf(buf, len, at, "filter     input markers for %g mm noise, alpha", 1000 * m->filter_noise);
+        for (int j = 0; j < m->nmarkers; j++)
+            mdl__appendf(buf, len, at, " %s %.2f", m->markers[j].name, m->mfilt[2 * j]);
+        mdl__appendf(buf, len, at, "\n");
+    } else {
+        mdl__appendf(buf, len, at, "filter     none\n");
+    }
+    if (m->sel) {
+        const mdl_select_cand *c = &m->sel->cand[m->sel->chosen];
+        char rd[32];
+        snprintf(rd, sizeof rd, "%g", c->ridge);
+        mdl__appendf(buf, len, at, "selection  %d candidates, %d folds, %.2f s; chose motion directions %s, %s, "
+                     "ridge %s, input filter %s, train noise %g mm, overlap %d, modes <= %d, parts <= %d (score %.3f)\n",
+                     m->sel->ncand, m->sel->folds, m->sel->seconds, c->use_motion_dir ? "on" : "off",
+                     c->linear == 1 ? "linear" : "rbf", c->ridge < 0 ? "leave-one-out" : rd, c->filter_noise > 0 ? "on" : "off", 1000 * c->train_noise,
+                     c->overlap_rings, c->max_modes, c->max_clusters, c->score);
+    }
 }
 
 static void steer_report(const void *impl, const mdl_model *mm, void *obj)
@@ -624,6 +670,37 @@ static void steer_report(const void *impl, const mdl_model *mm, void *obj)
         cJSON_AddNumberToObject(e, "explained_variance", m->part_explained[p]);
         cJSON_AddNumberToObject(e, "rigid_rms", m->part_rms[p]);
         cJSON_AddItemToArray(parts, e);
+    }
+    if (m->sel) { /* the option selection (select.h): every candidate and the choice */
+        const mdl_select_result *r = m->sel;
+        cJSON *se = cJSON_AddObjectToObject(o, "selection");
+        cJSON_AddNumberToObject(se, "folds", r->folds);
+        cJSON_AddNumberToObject(se, "noise_m", r->select_noise);
+        cJSON_AddNumberToObject(se, "seconds", r->seconds);
+        cJSON_AddNumberToObject(se, "chosen", r->chosen);
+        cJSON *ca = cJSON_AddArrayToObject(se, "candidates");
+        for (int i = 0; i < r->ncand; i++) {
+            const mdl_select_cand *c = &r->cand[i];
+            cJSON *e = cJSON_CreateObject();
+            cJSON_AddBoolToObject(e, "motion_dir", c->use_motion_dir);
+            cJSON_AddStringToObject(e, "regression", c->linear == 1 ? "linear" : "rbf");
+            if (c->ridge < 0)
+                cJSON_AddStringToObject(e, "ridge", "leave-one-out");
+            else
+                cJSON_AddNumberToObject(e, "ridge", c->ridge);
+            cJSON_AddNumberToObject(e, "filter_noise_m", c->filter_noise);
+            cJSON_AddNumberToObject(e, "train_noise_m", c->train_noise);
+            cJSON_AddNumberToObject(e, "overlap_rings", c->overlap_rings);
+            cJSON_AddNumberToObject(e, "max_modes", c->max_modes);
+            cJSON_AddNumberToObject(e, "max_clusters", c->max_clusters);
+            cJSON_AddNumberToObject(e, "val_err_clean", c->err_clean);
+            cJSON_AddNumberToObject(e, "val_baseline_clean", c->base_clean);
+            cJSON_AddNumberToObject(e, "val_err_noisy", c->err_noisy);
+            cJSON_AddNumberToObject(e, "val_baseline_noisy", c->base_noisy);
+            cJSON_AddNumberToObject(e, "score", c->score);
+            cJSON_AddBoolToObject(e, "chosen", i == r->chosen);
+            cJSON_AddItemToArray(ca, e);
+        }
     }
     cJSON *limbs = cJSON_AddArrayToObject(o, "limbs");
     for (int l = 0; l < m->nlimbs; l++) {

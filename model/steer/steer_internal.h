@@ -76,6 +76,9 @@ struct mdl_steer {
                                  reference edge (posefeat.h), or MDL_AXIS_FIT (heading.h) */
     double *hd_mesh, *hd_rec; /* with MDL_AXIS_FIT: the heading fit's canonical configuration and
                                  weights, nmarkers x 4 (heading.h); else NULL */
+    double *mfilt;            /* nmarkers x 2: the input filter's gains (mfilter.h), or NULL (off;
+                                 files before it) */
+    double filter_noise;      /* the sigma_n they were made for (m; report) */
     double place_R[9], place_o[3];
     double rec_heading, rec_origin[3];
 
@@ -127,6 +130,10 @@ struct mdl_steer {
     int *blend_inst;         /* instance index */
     int *blend_local;        /* local index of the vertex in that instance's part list */
     float *blend_w;
+
+    /* the option selection of this training (select.h), for the report; not saved (NULL after
+     * loading, or when no selection ran) */
+    struct mdl_select_result *sel;
 };
 
 /* Frees everything a model holds; NULL is fine. */
@@ -136,6 +143,31 @@ void mdl__steer_free(struct mdl_steer *m);
 int mdl__steer_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
                      const mdl_markers *markers, const mdl_train_opts *opts, struct mdl_steer **out,
                      char *err);
+
+/* train.c: training in two steps, for the option selection (select.c): mdl__steer_fit_begin runs
+ * every stage but the regressions (stages 1-6 and 8) with opts (resolved: no -1 left but ridge and
+ * linear); mdl__steer_fit_regress fits (again) the regressions (stage 7) with o's use_motion_dir,
+ * linear, ridge, train_noise and noise_copies, after which mdl__steer_fit_model is a complete
+ * model; mdl__steer_fit_end frees the fit and, with out, hands over the model. */
+typedef struct mdl__steer_fit mdl__steer_fit;
+/* A partition into near-rigid parts (cluster.h): n parts, part (nv ids), rms (n residuals). */
+typedef struct mdl__steer_parts {
+    int n;
+    int *part;
+    double *rms;
+} mdl__steer_parts;
+/* given: a partition of the same frames to use instead of clustering (NULL: cluster); snap_k > 0:
+ * also keep the partition a run with max_clusters = snap_k would give (mdl__steer_fit_snap). */
+int mdl__steer_fit_begin(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
+                         const mdl_markers *markers, const mdl_train_opts *opts,
+                         const mdl__steer_parts *given, int snap_k, mdl__steer_fit **out,
+                         char *err);
+/* The fit's partition, and the snapshot (n = 0 without snap_k); both borrowed. */
+mdl__steer_parts mdl__steer_fit_parts(const mdl__steer_fit *f);
+mdl__steer_parts mdl__steer_fit_snap(const mdl__steer_fit *f);
+int mdl__steer_fit_regress(mdl__steer_fit *f, const mdl_train_opts *o, char *err);
+const struct mdl_steer *mdl__steer_fit_model(const mdl__steer_fit *f);
+void mdl__steer_fit_end(mdl__steer_fit *f, struct mdl_steer **out);
 
 /* synth.c: synthesis (Sec. 5), behind the kind table of steer_kind.c. */
 typedef struct mdl_steer_synth mdl_steer_synth;

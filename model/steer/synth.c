@@ -34,6 +34,7 @@
  */
 #include "steer/posefeat.h"
 #include "steer/heading.h"
+#include "steer/mfilter.h"
 #include "core/linalg.h"
 #include "steer/steer_internal.h"
 #include "steer/regress.h"
@@ -74,6 +75,8 @@ struct mdl_steer_synth {
     const struct mdl_steer *m;
     float *P, *Pprev, *Plast;  /* nmarkers x 3: this frame, previous frame, last valid */
     uint8_t *seen;             /* nmarkers: ever valid */
+    double *fx, *fv;           /* nmarkers x 3: the input filter's state (mfilter.h) */
+    uint8_t *finit;            /* nmarkers */
     int have_prev, have_body;
     double Rb[9], ob[3];
     double *feat, *row, *z, *out; /* scratch: features, design row, design row + 1, outputs */
@@ -128,6 +131,9 @@ void mdl__steer_synth_destroy(mdl_steer_synth *s)
     free(s->P);
     free(s->Pprev);
     free(s->Plast);
+    free(s->fx);
+    free(s->fv);
+    free(s->finit);
     free(s->seen);
     free(s->feat);
     free(s->row);
@@ -211,6 +217,9 @@ static int synth_scratch(mdl_steer_synth *s, char *err)
     s->Pprev = mdl__calloc((size_t)nm * 3, sizeof(float));
     s->Plast = mdl__calloc((size_t)nm * 3, sizeof(float));
     s->seen = mdl__calloc((size_t)nm, 1);
+    s->fx = mdl__calloc((size_t)nm * 3, sizeof(double));
+    s->fv = mdl__calloc((size_t)nm * 3, sizeof(double));
+    s->finit = mdl__calloc((size_t)nm, 1);
     s->mb = mdl__calloc((size_t)nm * 3, sizeof(double));
     s->mvalid = mdl__calloc((size_t)nm, 1);
     s->feat = mdl__calloc((size_t)maxd, sizeof(double));
@@ -225,7 +234,7 @@ static int synth_scratch(mdl_steer_synth *s, char *err)
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
     s->acc = mdl__calloc((size_t)m->nv * 4, sizeof(double));
     s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
-    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->mb || !s->mvalid || !s->feat || !s->row ||
+    if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->fx || !s->fv || !s->finit || !s->mb || !s->mvalid || !s->feat || !s->row ||
         !s->z || !s->out || !s->iq || !s->iRp || !s->iR || !s->it || !s->flam || !s->rhs || !s->acc ||
         !s->cnt)
         return synth_oom(err);
@@ -540,6 +549,7 @@ int mdl__steer_synth_create(const struct mdl_steer *m, mdl_steer_synth **out, ch
 void mdl__steer_synth_reset(mdl_steer_synth *s)
 {
     memset(s->seen, 0, (size_t)s->m->nmarkers);
+    memset(s->finit, 0, (size_t)s->m->nmarkers);
     s->have_prev = 0;
     s->have_body = 0;
 }
@@ -903,7 +913,14 @@ int mdl__steer_synth_frame(mdl_steer_synth *s, const float *markers, const uint8
         int ok = (!valid || valid[j]) && isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
         s->mvalid[j] = (uint8_t)ok;
         if (ok) {
-            memcpy(s->Plast + 3 * j, p, 3 * sizeof(float));
+            if (m->mfilt) { /* the input filter (mfilter.h) */
+                mdl__mfilter_step(m->mfilt + 2 * j, 1, p, NULL, s->fx + 3 * j, s->fv + 3 * j,
+                                  s->finit + j);
+                for (int c = 0; c < 3; c++)
+                    s->Plast[3 * j + c] = (float)s->fx[3 * j + c];
+            } else {
+                memcpy(s->Plast + 3 * j, p, 3 * sizeof(float));
+            }
             s->seen[j] = 1;
         } else {
             missing++;

@@ -38,6 +38,8 @@
 #include "steer/regress.h"
 #include "core/rigid.h"
 #include "steer/shape.h"
+#include "steer/select.h"
+#include "steer/mfilter.h"
 #include "core/util.h"
 
 #include <errno.h>
@@ -51,21 +53,24 @@ void mdl_train_opts_default(mdl_train_opts *o)
 {
     memset(o, 0, sizeof *o);
     o->clusters = 0;
-    o->max_clusters = 24;
+    o->max_clusters = -1;
     o->rigid_tol = 0.004;
-    o->overlap_rings = 2;
+    o->overlap_rings = -1;
     o->explained = 0.95;
-    o->max_modes = 6;
+    o->max_modes = -1;
     o->ridge = -1;
     o->beta = 0.5;
     o->iterations = 1;
-    o->use_motion_dir = 0;
+    o->use_motion_dir = -1;
     o->marker_weight = -1;
     o->linear = -1;
     o->relax = 4;
     o->align_samples = 16;
-    o->train_noise = 0;
+    o->train_noise = -1;
     o->noise_copies = 4;
+    o->select_folds = 0; /* the library keeps training fast; `meshsteer train` sets MDL_SELECT_FOLDS */
+    o->select_noise = MDL_SELECT_NOISE;
+    o->filter_noise = -1;
     o->name = "model";
 }
 
@@ -104,6 +109,10 @@ typedef struct train_state {
     int *lmap;              /* FM: training frame each sample is mapped to (adapt.h) */
     /* precompute (precompute_*) */
     int *vinst_cnt;         /* nv: instances holding each vertex */
+    /* the option selection (train_parts) */
+    const mdl__steer_parts *given; /* a partition to use instead of clustering, or NULL */
+    int snap_k;             /* > 0: keep the partition max_clusters = snap_k would give */
+    mdl__steer_parts snap;
     uint8_t *gsel;          /* nv: vertex in the alignment sample */
 } train_state;
 
@@ -125,6 +134,8 @@ static void train_state_fini(train_state *st)
     free(st->Pm);
     free(st->lmap);
     free(st->vinst_cnt);
+    free(st->snap.part);
+    free(st->snap.rms);
     free(st->gsel);
 }
 
@@ -276,7 +287,9 @@ static int train_frames(train_state *st, char *err)
         m->hd_mesh = mdl__calloc((size_t)nm * 4, sizeof *m->hd_mesh);
         if (!m->hd_mesh)
             return oom(err);
-        int rc = mdl__heading_train(st->Pv, T, (size_t)nm * 3, nm, m->ref, m->hd_mesh);
+        /* the noise the model is made for: the selection's (0 without it) */
+        double noise = !st->markers && st->opts->select_folds > 0 ? st->opts->select_noise : 0;
+        int rc = mdl__heading_train(st->Pv, T, (size_t)nm * 3, nm, m->ref, noise, m->hd_mesh);
         if (rc)
             return mdl__err(err, rc, "train: the heading fit failed (%d)", rc);
         m->axis_mesh = MDL_AXIS_FIT;
@@ -314,10 +327,23 @@ static int train_parts(train_state *st, char *err)
     if (!m->part || !m->part_rms)
         return oom(err);
     int min_size = nv / 400 > 8 ? nv / 400 : 8;
-    if ((rc = mdl__cluster(st->X, st->T, nv, &st->g, opts->clusters, opts->max_clusters,
-                           opts->rigid_tol * diag, min_size, m->part, &m->nparts, m->part_rms,
-                           opts->progress, opts->progress_ud, err)))
-        return rc;
+    if (st->given) { /* the option selection's: the same frames clustered once */
+        memcpy(m->part, st->given->part, sizeof *m->part * (size_t)nv);
+        memcpy(m->part_rms, st->given->rms, sizeof *m->part_rms * (size_t)st->given->n);
+        m->nparts = st->given->n;
+    } else {
+        if (st->snap_k > 0) {
+            st->snap.part = mdl__calloc((size_t)nv, sizeof *st->snap.part);
+            st->snap.rms = mdl__calloc((size_t)maxk + 1, sizeof *st->snap.rms);
+            if (!st->snap.part || !st->snap.rms)
+                return oom(err);
+        }
+        if ((rc = mdl__cluster_snap(st->X, st->T, nv, &st->g, opts->clusters, opts->max_clusters,
+                                    opts->rigid_tol * diag, min_size, m->part, &m->nparts,
+                                    m->part_rms, st->snap_k, st->snap.part, &st->snap.n,
+                                    st->snap.rms, opts->progress, opts->progress_ud, err)))
+            return rc;
+    }
     int P = m->nparts;
 
     const mdl_graph *g = &st->g;
@@ -803,7 +829,7 @@ static int train_recording(train_state *st, char *err)
         m->hd_rec = mdl__calloc((size_t)nm * 4, sizeof *m->hd_rec);
         if (!m->hd_rec)
             return oom(err);
-        int rc = mdl__heading_train(st->Pm, FM, (size_t)nm * 3, nm, m->ref, m->hd_rec);
+        int rc = mdl__heading_train(st->Pm, FM, (size_t)nm * 3, nm, m->ref, 0, m->hd_rec);
         if (rc)
             return mdl__err(err, rc, "train: the recording's heading fit failed (%d)", rc);
         m->axis_rec = MDL_AXIS_FIT;
@@ -1264,6 +1290,116 @@ static int train_precompute(train_state *st, char *err)
     return 0;
 }
 
+/* The regressions of a model in training (stage 7), freed so that they can be fitted again. */
+static void free_regressions(struct mdl_steer *m)
+{
+    if (!m->reg)
+        return;
+    for (int l = 0; l < m->nlimbs; l++) {
+        mdl_limb_reg *rg = &m->reg[l];
+        free(rg->feat_scale);
+        free(rg->feat_shift);
+        free(rg->zmean);
+        free(rg->zsd);
+        free(rg->cent);
+        free(rg->in_mean);
+        free(rg->in_sd);
+        free(rg->coef);
+    }
+    free(m->reg);
+    m->reg = NULL;
+}
+
+struct mdl__steer_fit {
+    train_state st;
+    mdl_train_opts opts;   /* the options of the stages before the regressions */
+    struct timespec t0;
+};
+
+void mdl__steer_fit_end(mdl__steer_fit *f, struct mdl_steer **out)
+{
+    if (!f)
+        return;
+    if (out && f->st.m) {
+        struct timespec t1;
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        f->st.m->train_seconds = (double)(t1.tv_sec - f->t0.tv_sec) +
+                                 1e-9 * (double)(t1.tv_nsec - f->t0.tv_nsec);
+        *out = f->st.m;
+        f->st.m = NULL;
+    }
+    mdl__steer_free(f->st.m);
+    train_state_fini(&f->st);
+    free(f);
+}
+
+int mdl__steer_fit_begin(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
+                         const mdl_markers *markers, const mdl_train_opts *opts,
+                         const mdl__steer_parts *given, int snap_k, mdl__steer_fit **out,
+                         char *err)
+{
+    *out = NULL;
+    mdl__steer_fit *f = mdl__calloc(1, sizeof *f);
+    if (!f)
+        return oom(err);
+    clock_gettime(CLOCK_MONOTONIC, &f->t0);
+    f->opts = *opts;
+    f->st = (train_state){.seq = seq, .frames = frames, .T = nframes, .rig = rig, .markers = markers,
+                          .opts = &f->opts, .nv = seq->nv, .nm = rig->nmarkers,
+                          .given = given, .snap_k = snap_k};
+    train_state *st = &f->st;
+    int rc;
+    if ((rc = train_setup(st, err)) || (rc = train_frames(st, err)) || (rc = train_parts(st, err)) ||
+        (rc = train_skeleton(st, err)) || (rc = train_part_poses(st, err)) ||
+        (rc = train_shape_models(st, err)) || (rc = train_targets(st, err)) ||
+        (markers && (rc = train_recording(st, err))) || (rc = train_precompute(st, err))) {
+        mdl__steer_fit_end(f, NULL);
+        return rc;
+    }
+    *out = f;
+    return 0;
+}
+
+int mdl__steer_fit_regress(mdl__steer_fit *f, const mdl_train_opts *o, char *err)
+{
+    train_state *st = &f->st;
+    free_regressions(st->m);
+    f->opts.use_motion_dir = o->use_motion_dir;
+    f->opts.linear = o->linear;
+    f->opts.ridge = o->ridge;
+    f->opts.train_noise = o->train_noise;
+    f->opts.noise_copies = o->noise_copies;
+    st->m->use_motion_dir = o->use_motion_dir;
+    /* the input filter (synthesis only, mfilter.h), from the rig's motion in the training frames */
+    struct mdl_steer *m = st->m;
+    free(m->mfilt);
+    m->mfilt = NULL;
+    m->filter_noise = 0;
+    if (!st->markers && o->filter_noise > 0) {
+        m->mfilt = mdl__calloc((size_t)st->nm * 2, sizeof *m->mfilt);
+        if (!m->mfilt)
+            return oom(err);
+        mdl__mfilter_train(st->Pv, st->T, (size_t)st->nm * 3, st->nm, o->filter_noise, m->mfilt);
+        m->filter_noise = o->filter_noise;
+    }
+    return train_regressions(st, err);
+}
+
+const struct mdl_steer *mdl__steer_fit_model(const mdl__steer_fit *f)
+{
+    return f->st.m;
+}
+
+mdl__steer_parts mdl__steer_fit_parts(const mdl__steer_fit *f)
+{
+    return (mdl__steer_parts){f->st.m->nparts, f->st.m->part, f->st.m->part_rms};
+}
+
+mdl__steer_parts mdl__steer_fit_snap(const mdl__steer_fit *f)
+{
+    return f->st.snap;
+}
+
 int mdl__steer_train(const mdl_meshseq *seq, const int *frames, int nframes, const mdl_rig *rig,
                      const mdl_markers *markers, const mdl_train_opts *opts, struct mdl_steer **out,
                      char *err)
@@ -1274,25 +1410,43 @@ int mdl__steer_train(const mdl_meshseq *seq, const int *frames, int nframes, con
         opts = &defo;
     }
     *out = NULL;
-    struct timespec t0;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
-    train_state st = {.seq = seq, .frames = frames, .T = nframes, .rig = rig, .markers = markers,
-                      .opts = opts, .nv = seq->nv, .nm = rig->nmarkers};
+    mdl_train_opts ro;
+    mdl_select_result *sel = NULL;
     int rc;
-    if ((rc = train_setup(&st, err)) || (rc = train_frames(&st, err)) ||
-        (rc = train_parts(&st, err)) || (rc = train_skeleton(&st, err)) ||
-        (rc = train_part_poses(&st, err)) || (rc = train_shape_models(&st, err)) ||
-        (rc = train_targets(&st, err)) || (markers && (rc = train_recording(&st, err))) ||
-        (rc = train_regressions(&st, err)) || (rc = train_precompute(&st, err))) {
-        mdl__steer_free(st.m);
-        train_state_fini(&st);
+    if (!markers && opts->select_folds > 0) { /* the options left at -1 chosen by the data */
+        sel = mdl__calloc(1, sizeof *sel);
+        if (!sel)
+            return oom(err);
+        progress(opts, "option selection", 0);
+        if ((rc = mdl__steer_select(seq, frames, nframes, rig, opts, &ro, sel, err))) {
+            free(sel);
+            return rc;
+        }
+        if (sel->folds == 0) {
+            free(sel);
+            sel = NULL;
+        }
+    } else {
+        mdl__train_opts_resolve(opts, &ro);
+    }
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    mdl__steer_fit *f;
+    if ((rc = mdl__steer_fit_begin(seq, frames, nframes, rig, markers, &ro, NULL, 0, &f, err))) {
+        free(sel);
         return rc;
     }
-    struct timespec t1;
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    st.m->train_seconds = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    if ((rc = mdl__steer_fit_regress(f, &ro, err))) {
+        mdl__steer_fit_end(f, NULL);
+        free(sel);
+        return rc;
+    }
     progress(opts, "done", 1);
-    *out = st.m;
-    train_state_fini(&st);
+    mdl__steer_fit_end(f, out);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    /* the training time includes the selection */
+    (*out)->train_seconds = (sel ? sel->seconds : 0) + (double)(t1.tv_sec - t0.tv_sec) +
+                            1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    (*out)->sel = sel;
     return 0;
 }

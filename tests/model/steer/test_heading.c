@@ -34,7 +34,7 @@ int main(void)
         const int nm = 5, ref[2] = {0, 1};
         float P[15] = {0, 1, 0, 0, 1.5f, 0.05f, 0.3f, 1.2f, 0.2f, -0.2f, 0, 0.1f, 0.2f, 0, -0.1f};
         double hd[20];
-        ASSERT_OK(mdl__heading_train(P, 1, 15, nm, ref, hd), "heading_train");
+        ASSERT_OK(mdl__heading_train(P, 1, 15, nm, ref, 0, hd), "heading_train");
         for (int k = 0; k < 8; k++) {
             float Q[15];
             double R0[9], o0[3], R1[9], o1[3];
@@ -96,7 +96,7 @@ int main(void)
             for (int j = 0; j < nm; j++)
                 for (int c = 0; c < 3; c++)
                     P[((size_t)i * nm + j) * 3 + c] = seq->V[((size_t)idx[i] * nv + rig->markers[j].vertex) * 3 + c];
-        ASSERT_OK(mdl__heading_train(P, n, (size_t)nm * 3, nm, rig->ref, hd), "heading_train");
+        ASSERT_OK(mdl__heading_train(P, n, (size_t)nm * 3, nm, rig->ref, 0, hd), "heading_train");
         uint8_t valid[64];
         for (int j = 0; j < nm; j++)
             valid[j] = strcmp(rig->markers[j].name, "lhand") != 0;

@@ -1,0 +1,76 @@
+/* select.h - the steering model's options chosen by the data (issue 12): leave-a-block-out
+ * cross-validation in time over the training frames, with clean and noisy markers.
+ *
+ * Procedure (with virtual markers only; a recording of another performer has no ground truth to
+ * validate against, and keeps the defaults):
+ *   1. The T training frames, in the order given, are cut into time blocks of MDL_SELECT_BLOCK
+ *      frames; fold k (K = opts->select_folds, at most 8, fewer when a fold would keep under 3
+ *      frames) holds out the blocks b with b mod K = k and trains on the rest. A held-out frame's
+ *      temporal neighbour is held out with it, and the held-out blocks are spread over the whole
+ *      motion, so the validation interpolates between poses as the test frames do. (K contiguous
+ *      blocks were tried first: that validates extrapolation to an unseen part of the motion,
+ *      with errors 2-4x the test's, and always picked the stiffest options.)
+ *   2. Validation of one candidate on one fold: the fold's model is driven by the rig vertices of
+ *      its held-out frames in order (one synthesis per pass; each block is warmed up, unscored, by
+ *      the training frame before it), once clean and once with Gaussian marker noise of
+ *      opts->select_noise metres per axis (a fixed seed per fold: deterministic); the error is
+ *      eval.c's, the mean vertex distance after rigid alignment over the first training frame's
+ *      box diagonal, beside eval.c's nearest-frame baseline among the fold's own training frames
+ *      fed the same (noisy) markers.
+ *   3. Score of a candidate = max(E_clean / B_clean, E_noisy / B_noisy), E and B summed over all
+ *      held-out frames of all folds: the worse of the two ratios to the baseline, so that an
+ *      option that wins clean but breaks under noise (motion directions on samba) is not chosen.
+ *   4. Search, coordinate-wise from the defaults (each option left at -1 in opts; a value given
+ *      is fixed and not searched), in this order, keeping the best so far:
+ *        input filter off / on at select_noise (mfilter.h); training noise 0 / select_noise / 2 /
+ *        select_noise; motion directions off / on; radial basis / linear; ridge by leave-one-out
+ *        / 1 (these refit only the regressions of the fold models, train.c
+ *        mdl__steer_fit_regress); overlap rings 2 / 1 / 3; modes at most 6 / 3; parts at most 24
+ *        / MDL_SELECT_FEW_PARTS (these rebuild the fold models on the fold's partition: the
+ *        clustering runs once per fold, and its state when it passed MDL_SELECT_FEW_PARTS parts is
+ *        the smaller partition, cluster.h mdl__cluster_snap).
+ *      A candidate replaces the best only when its score is lower by more than 1 % (near-ties keep
+ *      the default, the simpler and already documented model).
+ *   5. The chosen options are applied to a final fit on all training frames.
+ * Cost: per fold one clustering, one structural fit per structural candidate and one regression
+ * refit per candidate, and 2 x (held-out frames + blocks) synthesised frames per candidate.
+ */
+#ifndef MESHSTEER_STEER_SELECT_H
+#define MESHSTEER_STEER_SELECT_H
+
+#include "model.h"
+
+#define MDL_SELECT_FOLDS 3      /* folds */
+#define MDL_SELECT_BLOCK 2      /* training frames per time block */
+#define MDL_SELECT_NOISE 0.010  /* metres: the validation's marker noise (a depth sensor's scale) */
+#define MDL_SELECT_FEW_PARTS 12 /* the alternative bound on the number of parts */
+#define MDL_SELECT_MAX_CAND 16
+
+typedef struct mdl_select_cand {
+    int use_motion_dir, linear, overlap_rings, max_modes, max_clusters;
+    double ridge;
+    double filter_noise, train_noise;
+    double err_clean, base_clean, err_noisy, base_noisy; /* means over held-out frames, / diagonal */
+    double score;
+} mdl_select_cand;
+
+typedef struct mdl_select_result {
+    int folds, ncand, chosen;   /* chosen: index into cand */
+    double select_noise;
+    double seconds;
+    mdl_select_cand cand[MDL_SELECT_MAX_CAND];
+} mdl_select_result;
+
+/* opts with every -1 ("selected") field replaced by its default, as training without selection
+ * uses it. */
+void mdl__train_opts_resolve(const mdl_train_opts *in, mdl_train_opts *out);
+
+/* Runs the selection for training frames[0..n) with virtual markers. out: opts with the searched
+ * fields set to the choice (resolved: no -1 left); res: every candidate and its validation. When
+ * no selection applies (select_folds 0, too few frames, nothing left at -1), res->folds is 0 and
+ * out is the resolved opts. */
+int mdl__steer_select(const mdl_meshseq *seq, const int *frames, int n, const mdl_rig *rig,
+                      const mdl_train_opts *opts, mdl_train_opts *out, mdl_select_result *res,
+                      char *err);
+
+#endif
