@@ -34,7 +34,7 @@ static double noisy_err(const mdl_model *m, const mdl_meshseq *s)
     char err[MDL_ERR_LEN] = "";
     int *idx, n;
     ASSERT_OK(mdl_parse_frames("1:24:2", s->frames, &idx, &n, err), err);
-    mdl_eval_opts o = {0.010, 0, 1};
+    mdl_eval_opts o = {0.010, 0, 1, 0};
     mdl_eval_result r;
     ASSERT_OK(mdl_eval_run(m, s, idx, n, &o, &r, err), err);
     double e = r.mean_err;
