@@ -23,6 +23,7 @@ const stats = {
   errors: 0, lastError: '',
   latencyMs: NaN,     // capture -> on screen, smoothed; NaN until the clock offset is known
   fps: 0, generation: 0,
+  tickHz: 0,          // animation frames the browser gave the page per second (what it can draw)
   encoding: ['int16', 'params'].includes(params.get('encoding')) ? params.get('encoding') : 'float32',
   paramsModels: 0, paramsFrames: 0, // params models (MSPM) and params frames received
   transport: '',      // 'websocket' (the daemon's /stream) or 'nats' (?nats=ws://...)
@@ -455,9 +456,10 @@ function resize() {
 window.addEventListener('resize', resize);
 resize();
 
-let fpsCount = 0, fpsT0 = performance.now();
+let fpsCount = 0, tickCount = 0, fpsT0 = performance.now();
 function draw() {
   requestAnimationFrame(draw);
+  tickCount++;
   if (pending && mesh) {
     if (pending.encoding === PP.ENC_PARAMS) { // the GPU rebuilds the mesh
       paramsMesh.update(renderer, pending.layout);
@@ -502,7 +504,8 @@ function draw() {
   const now = performance.now();
   if (now - fpsT0 >= 500) {
     stats.fps = fpsCount * 1000 / (now - fpsT0);
-    fpsCount = 0; fpsT0 = now;
+    stats.tickHz = tickCount * 1000 / (now - fpsT0);
+    fpsCount = 0; tickCount = 0; fpsT0 = now;
     el('o-fps').textContent = stats.fps.toFixed(1);
     el('o-latency').textContent = Number.isNaN(stats.latencyMs) ? '–' : `${stats.latencyMs.toFixed(1)} ms`;
     el('o-dropped').textContent = String(stats.dropped);

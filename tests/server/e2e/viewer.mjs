@@ -150,9 +150,14 @@ await drive(async page => {
   check(s.nv > 1000 && s.nf > 1000, `mesh of ${s.nv} vertices, ${s.nf} faces`);
   check(s.frames >= 100, `${s.frames} frames received`);
   // headless chromium renders WebGL in software (SwiftShader) on a shared 2-core machine: it draws
-  // 10-15 fps here, so the bounds check that the pipeline works, not a GPU's speed
+  // 5-15 fps here, depending on the machine. What the viewer controls is that it draws a new frame
+  // at (nearly) every animation frame the browser gives it while the source is faster: so its fps
+  // is checked against that rate in the same page (tickHz, rAF callbacks per second), not against
+  // a fixed number that measures the rasteriser
   check(s.rendered >= 30 && s.rendered <= s.frames, `${s.rendered} frames rendered`);
-  check(s.fps > 5, `fps ${s.fps.toFixed(1)} (source 30)`);
+  const canDraw = Math.min(30, s.tickHz);
+  check(s.fps >= 0.6 * canDraw && s.fps > 1,
+        `fps ${s.fps.toFixed(1)} (source 30; the browser gave ${s.tickHz.toFixed(1)} animation frames/s)`);
   check(s.latencyMs > 0 && s.latencyMs < 5000, `latency ${s.latencyMs.toFixed(1)} ms`);
   check(s.dropped + s.rendered >= s.frames - 2, `dropped ${s.dropped} counted`);
   check(s.errors === 0, `no errors ${s.lastError}`);
