@@ -26,11 +26,13 @@ function bytes(msg) {
 
 // Connects and keeps connected (the library reconnects, across the servers given and those the
 // cluster advertises). handlers: onOpen(), onClose(why), onText(obj), onBinary(arraybuffer),
-// onSkipped(n), onError(err). Returns { send(obj) }.
+// onSkipped(n), onError(err).
 // Latest wins here too: the library hands over every message it parsed from one WebSocket read
 // at once, so frames are kept as they come and only the newest is passed on, in a task of its own
-// after them; those it replaced are reported to onSkipped (a page slower than the stream skips
-// frames instead of falling behind, as a /stream client does).
+// after them, or earlier by poll() (the page calls it at the start of each animation frame: Chrome
+// may run the next animation frame before that task, and the frame would miss it); those it
+// replaced are reported to onSkipped (a page slower than the stream skips frames instead of
+// falling behind, as a /stream client does). Returns { send(obj), poll() }.
 export function natsLink(servers, prefix, encoding, handlers) {
   let nc = null, frames = null, enc = encoding, newest = null, replaced = 0;
   const subject = s => `${prefix}.${s}`;
@@ -104,6 +106,7 @@ export function natsLink(servers, prefix, encoding, handlers) {
   run().catch(fail);
 
   return {
+    poll: deliver,
     send(obj) {
       if (!nc || nc.isClosed()) return;
       if (obj.type === 'ping') { // an unanswered ping is only a lost clock sample, as on /stream

@@ -24,6 +24,7 @@ const stats = {
   latencyMs: NaN,     // capture -> on screen, smoothed; NaN until the clock offset is known
   fps: 0, generation: 0,
   tickHz: 0,          // animation frames the browser gave the page per second (what it can draw)
+  ticks: 0,           // animation frames the browser gave the page, in all
   encoding: ['int16', 'params'].includes(params.get('encoding')) ? params.get('encoding') : 'float32',
   paramsModels: 0, paramsFrames: 0, // params models (MSPM) and params frames received
   transport: '',      // 'websocket' (the daemon's /stream) or 'nats' (?nats=ws://...)
@@ -460,6 +461,8 @@ let fpsCount = 0, tickCount = 0, fpsT0 = performance.now();
 function draw() {
   requestAnimationFrame(draw);
   tickCount++;
+  stats.ticks++;
+  if (link) link.poll(); // the newest NATS frame that arrived since the last animation frame
   if (pending && mesh) {
     if (pending.encoding === PP.ENC_PARAMS) { // the GPU rebuilds the mesh
       paramsMesh.update(renderer, pending.layout);

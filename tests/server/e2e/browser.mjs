@@ -92,8 +92,9 @@ export async function drive(body) {
   process.exit(result.failed ? 1 : 0);
 }
 
-// Opens the viewer at url, waits until it has drawn 30 frames and 3 s more for its fps and latency
-// to settle, prints window.meshsteer and returns a copy of it.
+// Opens the viewer at url, waits until it has drawn 30 frames, then watches it 3 s more for its
+// fps and latency to settle; prints window.meshsteer and returns a copy of it, with drawShare: the
+// share of the animation frames the browser gave the page in those 3 s on which it drew a new frame.
 export async function openViewer(page, url) {
   await page.goto(url, { waitUntil: 'load' });
   // 30 frames drawn and 100 received (decoded, or replaced by a newer one first): a daemon under
@@ -101,8 +102,25 @@ export async function openViewer(page, url) {
   await page.waitForFunction(() => window.meshsteer && window.meshsteer.rendered >= 30 &&
                                    window.meshsteer.frames + (window.meshsteer.coalesced || 0) >= 100,
                              null, { timeout: 60000 });
+  const before = await page.evaluate(() => ({ ...window.meshsteer }));
   await page.waitForTimeout(3000);
   const s = await page.evaluate(() => ({ ...window.meshsteer }));
+  s.drawShare = (s.rendered - before.rendered) / Math.max(1, s.ticks - before.ticks);
   console.log(JSON.stringify(s));
   return s;
+}
+
+// Headless Chromium renders WebGL in software (SwiftShader) on a shared 2-core machine: 5-15 fps
+// here, depending on the machine and what runs beside it. What the viewer controls is that it draws
+// a new frame on (nearly) every animation frame the browser gives it while the 30 fps source is
+// faster; so the check is that share over openViewer's 3 s (one 0.5 s fps window holds only 2-4
+// draws at these rates: too few to judge by). Under a sanitizer (MESHSTEER_SANITIZED=1,
+// scripts/run.sh) the daemon's frames arrive late and in bursts, and the check only asks for a
+// third of that share, as the daemon tests do (tests/server/test_daemon.c).
+export function checkDrawRate(s) {
+  const want = process.env.MESHSTEER_SANITIZED === '1' ? 0.6 / 3 : 0.6;
+  check(s.drawShare >= want && s.fps > 1,
+        `drew a new frame on ${(100 * s.drawShare).toFixed(0)}% of the browser's animation frames ` +
+        `in 3 s (at least ${100 * want}%; fps ${s.fps.toFixed(1)}, the browser gave ` +
+        `${s.tickHz.toFixed(1)} animation frames/s, source 30)`);
 }

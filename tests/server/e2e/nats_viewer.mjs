@@ -5,7 +5,7 @@
 // controls (they do not travel over NATS). Then the node it reads from is killed and restarted
 // (MESHSTEER_NATS_RESTART_CMD): the viewer must reconnect by itself and render again.
 // Usage: node nats_viewer.mjs URL SCREENSHOT.png       (exit 77 = skip)
-import { drive, check, canvasCoverage, openViewer } from './browser.mjs';
+import { drive, check, canvasCoverage, openViewer, checkDrawRate } from './browser.mjs';
 
 const [url, shot] = process.argv.slice(2);
 await drive(async page => {
@@ -21,7 +21,7 @@ await drive(async page => {
   // frames that arrived: decoded, or replaced by a newer one first (latest wins in the page too)
   check(s.frames + s.coalesced >= 100, `${s.frames + s.coalesced} frames received (${s.frames} decoded)`);
   check(s.rendered >= 30 && s.rendered <= s.frames, `${s.rendered} frames rendered`);
-  check(s.fps > 5, `fps ${s.fps.toFixed(1)} (source 30)`);
+  checkDrawRate(s);
   check(s.latencyMs > 0 && s.latencyMs < 5000, `latency ${s.latencyMs.toFixed(1)} ms (clock by PREFIX.get.ping)`);
   check(s.errors === 0, `no errors ${s.lastError}`);
   check(JSON.stringify(s.controls) === '[]', `no source controls over NATS: ${JSON.stringify(s.controls)}`);
