@@ -108,24 +108,33 @@ static const char *const asf_legs[8] = {"lhipjoint", "lfemur", "lfemur", "ltibia
 static const char *const asf_arms[8] = {"lclavicle", "lhumerus", "lhumerus", "lradius",
                                         "rclavicle", "rhumerus", "rhumerus", "rradius"};
 
+/* the file's rest pose and motion (*rest, *mk: caller frees) and the template built from them
+ * with the rest fit, as joint rotations need it */
+static mdl_model *build_fitted(const mdl_mesh *target, const mdl_rig *rig, const char *path,
+                               mdl_markers **rest, mdl_markers **mk)
+{
+    char err[MDL_ERR_LEN] = "";
+    mdl_marker_opts mo = {.rest = 1};
+    ASSERT_OK(mdl_markers_read(path, &mo, rest, err), err);
+    mo.rest = 0;
+    ASSERT_OK(mdl_markers_read(path, &mo, mk, err), err);
+    mdl_harmonic_opts o;
+    mdl_harmonic_opts_default(&o);
+    o.template_motion = *mk;
+    o.fit_rest = 1;
+    mdl_model *m = NULL;
+    ASSERT_OK(mdl_harmonic_build(target, rig, *rest, &o, &m, err), err);
+    return m;
+}
+
 /* joints: drive the bones by the file's joint rotations (MDL_INPUT_JOINTS) as well */
 static void run_take(const mdl_mesh *target, const mdl_rig *rig, const char *take, const char *rel,
                      const char *const legs[8], const char *const arms[8], int joints)
 {
     char err[MDL_ERR_LEN] = "";
     const char *bvh = test_data(rel);
-    mdl_marker_opts mo = {0};
     mdl_markers *rest = NULL, *mk = NULL;
-    mo.rest = 1;
-    ASSERT_OK(mdl_markers_read(bvh, &mo, &rest, err), err);
-    mo.rest = 0;
-    ASSERT_OK(mdl_markers_read(bvh, &mo, &mk, err), err);
-    mdl_harmonic_opts o;
-    mdl_harmonic_opts_default(&o);
-    o.template_motion = mk;
-    o.fit_rest = 1;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_harmonic_build(target, rig, rest, &o, &m, err), err);
+    mdl_model *m = build_fitted(target, rig, bvh, &rest, &mk);
     const struct mdl_harmonic *h = mdl__model_kind(m, MDL_KIND_HARMONIC)->impl;
     check_fit(h, rig, take, legs, arms);
     mdl_model_info info;
@@ -305,20 +314,11 @@ static void run_twist(const mdl_mesh *target, const mdl_rig *rig)
         fprintf(f, "\n");
     }
     ASSERT(fclose(f) == 0);
-    mdl_marker_opts mopt = {.rest = 1};
     mdl_markers *rest = NULL, *mk = NULL;
-    ASSERT_OK(mdl_markers_read(path, &mopt, &rest, err), err);
-    mopt.rest = 0;
-    ASSERT_OK(mdl_markers_read(path, &mopt, &mk, err), err);
+    mdl_model *m = build_fitted(target, rig, path, &rest, &mk);
     for (size_t k = 0; k < 3 * (size_t)mk->count; k++)
         for (int i = 1; i < NTWIST; i++)
             ASSERT_NEAR_I(mk->P[3 * (size_t)mk->count * i + k], mk->P[k], 1e-5, k);
-    mdl_harmonic_opts o;
-    mdl_harmonic_opts_default(&o);
-    o.template_motion = mk;
-    o.fit_rest = 1;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_harmonic_build(target, rig, rest, &o, &m, err), err);
     const struct mdl_harmonic *h = mdl__model_kind(m, MDL_KIND_HARMONIC)->impl;
     mdl_model_info info;
     mdl_model_get_info(m, &info);

@@ -170,15 +170,9 @@ static void check_identity_splice(const struct mdl_variations *v, double *tol_ou
 static void test_looping(void)
 {
     char err[MDL_ERR_LEN] = "";
-    mdl_meshseq *s = lp_sequence(90, 30);
-    int idx[90];
-    for (int i = 0; i < 90; i++)
-        idx[i] = i;
-    mdl_skin_opts so;
-    mdl_skin_opts_default(&so);
-    so.bones = 3;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_skin_fit(s, idx, 90, &so, &m, err), err);
+    mdl_meshseq *s = NULL;
+    mdl_model *m = lp_fit(90, 30, 3, &s, err);
+    ASSERT_OK(m ? 0 : -1, err);
     mdl_variations *v = NULL;
     mdl_variations_opts og;
     mdl_variations_opts_default(&og);

@@ -123,15 +123,9 @@ static void test_looping(void)
 static void test_play(void)
 {
     char err[MDL_ERR_LEN] = "";
-    mdl_meshseq *s = lp_sequence(60, 20);
-    int idx[60];
-    for (int i = 0; i < 60; i++)
-        idx[i] = i;
-    mdl_skin_opts so;
-    mdl_skin_opts_default(&so);
-    so.bones = 3;
-    mdl_model *m = NULL;
-    ASSERT_OK(mdl_skin_fit(s, idx, 60, &so, &m, err), err);
+    mdl_meshseq *s = NULL;
+    mdl_model *m = lp_fit(60, 20, 3, &s, err);
+    ASSERT_OK(m ? 0 : -1, err);
     ASSERT_INT_EQ(mdl_variations_attached(m, NULL, NULL), 0);
     mdl_variations_opts o;
     mdl_variations_opts_default(&o);
