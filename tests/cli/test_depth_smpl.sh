@@ -57,8 +57,8 @@ expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/hum
 expect_status 0 "$ms" train --kind harmonic --mesh "$human" --rig "$src/rigs/human-asf-harmonic.json" \
     --template "$lam/lambada.amc" --fit-rest -o "$dir/lambada.msm"
 
-# make NAME MODEL MOCAP FRAMES NFRAMES: the take as a PC2, driven by the file's joint rotations
-make() {
+# synth_take NAME MODEL MOCAP FRAMES NFRAMES: the take as a PC2, driven by the file's joint rotations
+synth_take() {
     expect_status 0 "$ms" synth --model "$dir/$2.msm" --markers "$3" --frames "$4" -o "$dir/$1.pc2" --json
     local n jb
     n=$(json_num "$dir/out" frames) jb=$(json_num "$dir/out" joint_bones)
@@ -66,10 +66,10 @@ make() {
     [ "$(json_num "$dir/out" nonfinite)" = 0 ] || fail "$1: non-finite vertices"
     [ "$jb" -gt 0 ] || fail "$1: no bone driven by the file's joint rotations"
 }
-make hop cmu "$cmu/131_03.bvh" ::4 276
-make walk cmu "$cmu/131_01.bvh" 480::4 129
-make run hdm "$hdm/HDM_dg_06-03_03_120.amc" ::4 51
-make lambada lambada "$lam/lambada.amc" ::4 545
+synth_take hop cmu "$cmu/131_03.bvh" ::4 276
+synth_take walk cmu "$cmu/131_01.bvh" 480::4 129
+synth_take run hdm "$hdm/HDM_dg_06-03_03_120.amc" ::4 51
+synth_take lambada lambada "$lam/lambada.amc" ::4 545
 
 # check TAKE HEAD HAND FOOT SIDE SIDE_WRONG: the default placement and its bounds
 check() {
