@@ -4,7 +4,7 @@
 # harmonic model (de Aguiar 2007, `train --kind harmonic --fit-rest`, driven by the files' joint
 # rotations), rendered by the test camera and tracked by `meshsteer depth-eval` at the default
 # placement (2.5 m, facing the camera). The sequences are made here, in the scratch directory, from
-# the mocap: nothing generated is kept in the repository. Three takes, each at 30 fps (every 4th
+# the mocap: nothing generated is kept in the repository. Four takes, each at 30 fps (every 4th
 # frame of the 120 Hz files):
 #   hop  CMU 131_03.bvh "Start Hop Stop": hops on one leg and turns a full circle (276 frames)
 #   walk CMU 131_01.bvh "Start Walk Stop" from its frame 480: walks, turns, waves (129 frames;
@@ -88,7 +88,7 @@ check() {
     v=$(json_num "$dir/$t.json" side_correct)
     ge "$v" "$5" || fail "$t: side_correct is '$v', below $5"
     v=$(json_num "$dir/$t.json" side_wrong)
-    le "$v" "$6" || fail "$t: side_wrong is '$v', above $6"
+    [[ $v =~ ^[0-9.]+$ ]] && le "$v" "$6" || fail "$t: side_wrong is '$v', above $6"
 }
 
 # measured (2026-12-02, docs/PERFORMANCE.md): hop 0.730 / 0.268 / 0.795, side 0.470, wrong 0.063;
