@@ -16,7 +16,11 @@
  *   foot : max(0, -s l_a)/0.04 + max(0, h + 0.75)/0.1 + max(0, 0.7 - g)/0.1 + max(0, m - 0.15)/0.1
  *          (h < -0.55, not on the border)
  *   An extremum touching the image border is a cut through the body, not an extremity: it can
- *   not be the head or a foot, and costs 2 more as a hand (a hand partly out of view);
+ *   not be a foot, and costs 2 more as a hand (a hand partly out of view) or as the head. It can
+ *   be the head only in the top row, when its geodesic from the centroid is at most
+ *   HEAD_CUT_SLACK shorter than the person's head length measured on earlier frames with the
+ *   head in view (markers.c): the top of the head (pjump: of the neck) is then just above the
+ *   image; a neck cut lower down, with the head well out of view, is not reported;
  *   + temporal term min(|t - p_prev|/0.1, 3) - 1 when the label had a position last frame,
  * and leaving a label empty costs MISS. The assignment (each extremum used at most once) with the
  * least total cost is found exhaustively (at most 6^5 branches, pruned by the best total so far).
@@ -38,6 +42,9 @@
 #define HAND_REACH 0.65f /* a hand lies at least the centroid-to-shoulder geodesic (~0.45 m) and a
                            forearm (~0.25 m) from the centroid: a shoulder below a raised arm cut
                            by the image edge is no hand */
+#define HEAD_CUT_SLACK 0.08f /* metres: how much shorter than the measured head length a cut
+                                 may be and still be the head (the spread of the head's
+                                 geodesic over frames in full view: pjump 0.82 - 0.95 m) */
 #define NL 5
 #define MAXE (DRV_DEPTH_MAX_EXTREMA + 2)
 #define LOOP_PENALTY 2.f /* a free hand on a side whose arm closes a loop */
@@ -115,9 +122,14 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
         float hl = fminf(fabsf(dot3(r, across)), fabsf(dot3(r, right)));
         float hla = fminf(fabsf(dot3(ra, across)), fabsf(la));
         float b = x->border ? 2.f : 0.f;
-        s.cost[0][e] = h > 0.1f && !x->border ? hla / 0.08f + hl / 0.15f + pos(0.3f - h) / 0.1f +
-                                      pos(g - 1.0f) / 0.1f + b
-                                : FLT_MAX;
+        /* a head cut by the image's top edge: only when the cut lies within HEAD_CUT_SLACK of
+           the person's measured head length (the head's top just above the image) */
+        const int head_cut = x->top_cut && prev && prev->head_len > 0 &&
+                             x->geodesic0 >= prev->head_len - HEAD_CUT_SLACK;
+        s.cost[0][e] = h > 0.1f && (!x->border || head_cut)
+                           ? hla / 0.08f + hl / 0.15f + pos(0.3f - h) / 0.1f +
+                                 pos(g - 1.0f) / 0.1f + b
+                           : FLT_MAX;
         if (x->loop) { /* a hand on the hip, from an arm loop: that side's hand only */
             for (int k = 0; k < NL; k++)
                 s.cost[k][e] = k == (x->loop > 0 ? 1 : 2) ? 0.f : FLT_MAX;
