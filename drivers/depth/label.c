@@ -20,7 +20,9 @@
  *   be the head only in the top row, when its geodesic from the centroid is at most
  *   HEAD_CUT_SLACK shorter than the person's head length measured on earlier frames with the
  *   head in view (markers.c): the top of the head (pjump: of the neck) is then just above the
- *   image; a neck cut lower down, with the head well out of view, is not reported;
+ *   image; a neck cut lower down, with the head well out of view, is not reported. Any head
+ *   candidate costs max(0, head_len - HEAD_CUT_SLACK - g0)/0.1 more (g0: its geodesic from the
+ *   centroid): an extremum much shorter than the head is a shoulder under a head out of view;
  *   A hand from an arm loop (segment.c) costs 0 for its side's hand and a free hand on that
  *   side LOOP_PENALTY more, unless an extremum past the elbow (ARM_WHOLE from the centroid, its
  *   path climbing to the shoulder as an arm's does) lies within LOOP_FREE_HAND (a forearm and a
@@ -151,9 +153,12 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
            the person's measured head length (the head's top just above the image) */
         const int head_cut = x->top_cut && prev && prev->head_len > 0 &&
                              x->geodesic0 >= prev->head_len - HEAD_CUT_SLACK;
+        const float short_head = prev && prev->head_len > 0
+                                     ? pos(prev->head_len - HEAD_CUT_SLACK - x->geodesic0) / 0.1f
+                                     : 0.f;
         s.cost[0][e] = h > 0.1f && (!x->border || head_cut)
                            ? hla / 0.08f + hl / 0.15f + pos(0.3f - h) / 0.1f +
-                                 pos(g - 1.0f) / 0.1f + b
+                                 pos(g - 1.0f) / 0.1f + short_head + b
                            : FLT_MAX;
         if (x->loop) { /* a hand on the hip, from an arm loop: that side's hand only */
             for (int k = 0; k < NL; k++)

@@ -9,7 +9,8 @@
  * torso's surface, body_frame.c) -> per-label filter. A hand or foot whose side label.c finds
  * uncertain is filtered as found but reported not valid (side_uncertain). A label not found keeps its last output for hold_frames frames (reported
  * invalid) so that it can be re-associated; after that its filter restarts. The person's head
- * length (centroid-to-head geodesic) is measured on the frames with the head in full view, so
+ * length (centroid-to-head geodesic) is measured on the frames with the head in full view (no
+ * extremum on the image's top edge: else a shoulder under a head out of view may be labelled), so
  * that a head cut a little short by the image's top edge is still found (label.c). The torso marker is the
  * person's centroid. A hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is
  * placed at the estimated hidden end. A hand from an arm loop (segment.c) is a point on the visible
@@ -249,6 +250,9 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
         memcpy(prev.p[l], t->out[l], sizeof prev.p[l]);
     }
     prev.head_len = t->head_len;
+    int top_cut = 0; /* the person is cut by the image's top edge: the head may be out of view */
+    for (int i = 0; i < nex; i++)
+        top_cut |= t->ex[i].top_cut;
     int label[5];
     float conf[5];
     uint8_t side_sure[5];
@@ -266,7 +270,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 for (int a = 0; a < 3 && n > 0; a++)
                     p[a] *= 1.f + LOOP_BEHIND / n;
             }
-            if (l == DRV_DEPTH_HEAD && !t->ex[label[l]].border) { /* the head in full view */
+            if (l == DRV_DEPTH_HEAD && !t->ex[label[l]].border && !top_cut) { /* in full view */
                 const float gh = t->ex[label[l]].geodesic0;
                 t->head_len = t->head_len > 0 ? t->head_len + HEAD_LEN_ALPHA * (gh - t->head_len) : gh;
             }
