@@ -67,12 +67,15 @@ double drv__rand01(uint64_t *s);
 struct drv__extremum {
     int cell;
     float geodesic;   /* metres from the nearest earlier source when found */
+    float geodesic0;  /* metres from the centroid alone (the first pass) */
     float tip[3];     /* mean of the cells within tip_radius of it */
     float anchor[3];  /* a point on the limb, ANCHOR_BACK back from the tip along its path
                          from the source (geodesic.c): tells the side when tips cross */
     int border;       /* in the grid's outermost row or column: a limb cut by the image's edge,
                          not an extremity: 1 at the top or a side, 2 at the bottom only (a foot
                          standing below the view) */
+    int top_cut;      /* in the grid's top row, not in its first or last column: a limb that
+                         goes on above the image (label.c: a head cut a little short) */
     int loop;         /* 0: a geodesic extremum; +1 / -1: a hand estimated from an arm loop on the
                          camera's +X / -X side (drv__segment_arm_loops) */
     float path_hmax;  /* the highest point (metres above the source, along `up`) of its shortest
@@ -140,6 +143,8 @@ int drv__body_frame_update(drv__body_frame *bf, const drv__grid *g, const float 
 typedef struct drv__label_prev {
     float p[5][3];     /* head, lhand, rhand, lfoot, rfoot, as last output */
     uint8_t valid[5];
+    float head_len;    /* the person's centroid-to-head-top geodesic, measured on earlier frames
+                          with the head in full view (markers.c); 0 = not yet measured */
 } drv__label_prev;
 
 /* Assigns extrema to head/lhand/rhand/lfoot/rfoot. `up` and `right` are unit vectors of the body

@@ -395,12 +395,14 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         drv__extremum *x = &ex[nex++];
         x->cell = e;
         x->geodesic = de;
+        x->geodesic0 = ge->dist0[e];
         x->path_hmax = ge->hmax[e];
         int gx = e % g->gw, gy = e / g->gw;
         /* cut by the image's edge: the farthest cell of a limb that goes on beyond the image
            lies in the grid's outermost row or column (a head whose top is a few pixels inside
            the image is not cut) */
         x->border = gx < 1 || gy < 1 || gx >= g->gw - 1 ? 1 : gy >= g->gh - 1 ? 2 : 0;
+        x->top_cut = gy < 1 && gx >= 1 && gx < g->gw - 1;
         int a = e, limb = e, guard = g->ncells;
         while (ge->parent[a] >= 0 && ge->dist[ge->parent[a]] > de - LIMB_BACK && guard-- > 0)
             limb = a = ge->parent[a];

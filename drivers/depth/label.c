@@ -16,7 +16,19 @@
  *   foot : max(0, -s l_a)/0.04 + max(0, h + 0.75)/0.1 + max(0, 0.7 - g)/0.1 + max(0, m - 0.15)/0.1
  *          (h < -0.55, not on the border)
  *   An extremum touching the image border is a cut through the body, not an extremity: it can
- *   not be the head or a foot, and costs 2 more as a hand (a hand partly out of view);
+ *   not be a foot, and costs 2 more as a hand (a hand partly out of view) or as the head. It can
+ *   be the head only in the top row, when its geodesic from the centroid is at most
+ *   HEAD_CUT_SLACK shorter than the person's head length measured on earlier frames with the
+ *   head in view (markers.c): the top of the head (pjump: of the neck) is then just above the
+ *   image; a neck cut lower down, with the head well out of view, is not reported. Any head
+ *   candidate costs max(0, head_len - HEAD_CUT_SLACK - g0)/0.1 more (g0: its geodesic from the
+ *   centroid): an extremum much shorter than the head is a shoulder under a head out of view;
+ *   A hand from an arm loop (segment.c) costs 0 for its side's hand and a free hand on that
+ *   side LOOP_PENALTY more, unless an extremum past the elbow (ARM_WHOLE from the centroid, its
+ *   path climbing to the shoulder as an arm's does) lies within LOOP_FREE_HAND (a forearm and a
+ *   hand) of it: the arm then only looks closed
+ *   in the image - its hand in front of the chest, reached across a depth step - and the loop is
+ *   dropped (pjump turned by -20 degrees, arms bent before the chest);
  *   + temporal term min(|t - p_prev|/0.1, 3) - 1 when the label had a position last frame,
  * and leaving a label empty costs MISS. The assignment (each extremum used at most once) with the
  * least total cost is found exhaustively (at most 6^5 branches, pruned by the best total so far).
@@ -38,9 +50,16 @@
 #define HAND_REACH 0.65f /* a hand lies at least the centroid-to-shoulder geodesic (~0.45 m) and a
                            forearm (~0.25 m) from the centroid: a shoulder below a raised arm cut
                            by the image edge is no hand */
+#define HEAD_CUT_SLACK 0.08f /* metres: how much shorter than the measured head length a cut
+                                 may be and still be the head (the spread of the head's
+                                 geodesic over frames in full view: pjump 0.82 - 0.95 m) */
 #define NL 5
 #define MAXE (DRV_DEPTH_MAX_EXTREMA + 2)
 #define LOOP_PENALTY 2.f /* a free hand on a side whose arm closes a loop */
+#define LOOP_FREE_HAND 0.35f /* metres: a forearm (~0.25 m) and a hand (~0.1 m) */
+#define ARM_WHOLE 0.9f /* metres from the centroid: the shoulder (~0.45 m), the upper arm (~0.3 m)
+                          and more than half a forearm - past the elbow, which a loop's arm
+                          also has as an extremum */
 #define SIDE_MARGIN 1.f  /* a side is certain when swapping the pair costs at least this more */
 
 static float dot3(const float *a, const float *b)
@@ -101,10 +120,25 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
     const float an = sqrtf(dot3(across, across));
     for (int a = 0; a < 3; a++)
         across[a] /= an;
+    /* an arm loop whose hand estimate has a free extremum of a whole arm's reach within a
+       forearm and hand of it is an arm seen closed only in the image (the hand in front of the
+       chest across a depth step, which the geodesic graph crosses): that extremum is the hand */
+    uint8_t loop_off[MAXE] = {0};
     int loop_side[2] = {0, 0};
-    for (int e = 0; e < s.nex; e++)
-        if (ex[e].loop)
+    for (int e = 0; e < s.nex; e++) {
+        if (!ex[e].loop)
+            continue;
+        for (int f = 0; f < s.nex && !loop_off[e]; f++) {
+            const drv__extremum *y = &ex[f];
+            if (y->loop || y->border || y->geodesic0 < ARM_WHOLE || y->path_hmax < ARM_CLIMB)
+                continue;
+            float d[3] = {y->tip[0] - ex[e].tip[0], y->tip[1] - ex[e].tip[1],
+                          y->tip[2] - ex[e].tip[2]};
+            loop_off[e] = dot3(d, d) < LOOP_FREE_HAND * LOOP_FREE_HAND;
+        }
+        if (!loop_off[e])
             loop_side[ex[e].loop > 0 ? 0 : 1] = 1;
+    }
     for (int e = 0; e < s.nex; e++) {
         const drv__extremum *x = &ex[e];
         float r[3] = {x->tip[0] - centroid[0], x->tip[1] - centroid[1], x->tip[2] - centroid[2]};
@@ -115,12 +149,20 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
         float hl = fminf(fabsf(dot3(r, across)), fabsf(dot3(r, right)));
         float hla = fminf(fabsf(dot3(ra, across)), fabsf(la));
         float b = x->border ? 2.f : 0.f;
-        s.cost[0][e] = h > 0.1f && !x->border ? hla / 0.08f + hl / 0.15f + pos(0.3f - h) / 0.1f +
-                                      pos(g - 1.0f) / 0.1f + b
-                                : FLT_MAX;
+        /* a head cut by the image's top edge: only when the cut lies within HEAD_CUT_SLACK of
+           the person's measured head length (the head's top just above the image) */
+        const int head_cut = x->top_cut && prev && prev->head_len > 0 &&
+                             x->geodesic0 >= prev->head_len - HEAD_CUT_SLACK;
+        const float short_head = prev && prev->head_len > 0
+                                     ? pos(prev->head_len - HEAD_CUT_SLACK - x->geodesic0) / 0.1f
+                                     : 0.f;
+        s.cost[0][e] = h > 0.1f && (!x->border || head_cut)
+                           ? hla / 0.08f + hl / 0.15f + pos(0.3f - h) / 0.1f +
+                                 pos(g - 1.0f) / 0.1f + short_head + b
+                           : FLT_MAX;
         if (x->loop) { /* a hand on the hip, from an arm loop: that side's hand only */
             for (int k = 0; k < NL; k++)
-                s.cost[k][e] = k == (x->loop > 0 ? 1 : 2) ? 0.f : FLT_MAX;
+                s.cost[k][e] = k == (x->loop > 0 ? 1 : 2) && !loop_off[e] ? 0.f : FLT_MAX;
             continue;
         }
         for (int side = 0; side < 2; side++) {

@@ -8,7 +8,10 @@
  * normal when a floor was found, else the camera's +Y; right = the person's left, across the
  * torso's surface, body_frame.c) -> per-label filter. A hand or foot whose side label.c finds
  * uncertain is filtered as found but reported not valid (side_uncertain). A label not found keeps its last output for hold_frames frames (reported
- * invalid) so that it can be re-associated; after that its filter restarts. The torso marker is the
+ * invalid) so that it can be re-associated; after that its filter restarts. The person's head
+ * length (centroid-to-head geodesic) is measured on the frames with the head in full view (no
+ * extremum on the image's top edge: else a shoulder under a head out of view may be labelled), so
+ * that a head cut a little short by the image's top edge is still found (label.c). The torso marker is the
  * person's centroid. A hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is
  * placed at the estimated hidden end. A hand from an arm loop (segment.c) is a point on the visible
  * surface where the forearm meets the hip; the hand itself lies against the side or back of the
@@ -31,6 +34,11 @@
  * steps grow with the square of the depth: 1.9 cm at 2.5 m, 3.8 cm at 3.5 m; max_jump = 8 cm was
  * chosen at 2.5 m), at most half of seg_jump. */
 #define MAX_JUMP_STEPS 3.f
+/* The person's head length - the geodesic from the centroid to the head's top - is averaged
+ * over the frames where the head is found in full view (exponentially, this much of the new one
+ * per frame); label.c lets a limb cut by the image's top edge be the head when it is about as
+ * long (the top of the head just above the image). */
+#define HEAD_LEN_ALPHA 0.1f
 
 const char *const drv_depth_label_names[DRV_DEPTH_NLABELS] = {"head",  "lhand", "rhand",
                                                               "lfoot", "rfoot", "torso"};
@@ -46,6 +54,7 @@ struct drv_depth_tracker {
     int missed[DRV_DEPTH_NLABELS];   /* frames since last found; > hold_frames = unknown */
     float person_z;                  /* the person's mean depth in the last frame that had one */
     drv__body_frame bf;              /* which way the person faces */
+    float head_len;                  /* centroid-to-head geodesic (metres), 0 = not measured */
 };
 
 void drv_depth_opts_default(drv_depth_opts *o)
@@ -130,6 +139,7 @@ void drv_depth_tracker_reset(drv_depth_tracker *t)
 {
     t->rng = t->o.seed ? t->o.seed : 1;
     t->person_z = 0;
+    t->head_len = 0;
     drv__body_frame_reset(&t->bf);
     drv__grid_set_step(&t->g, &t->o, t->o.step);
     for (int l = 0; l < DRV_DEPTH_NLABELS; l++) {
@@ -239,6 +249,10 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
         prev.valid[l] = t->missed[l] <= t->o.hold_frames;
         memcpy(prev.p[l], t->out[l], sizeof prev.p[l]);
     }
+    prev.head_len = t->head_len;
+    int top_cut = 0; /* the person is cut by the image's top edge: the head may be out of view */
+    for (int i = 0; i < nex; i++)
+        top_cut |= t->ex[i].top_cut;
     int label[5];
     float conf[5];
     uint8_t side_sure[5];
@@ -255,6 +269,10 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 float n = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
                 for (int a = 0; a < 3 && n > 0; a++)
                     p[a] *= 1.f + LOOP_BEHIND / n;
+            }
+            if (l == DRV_DEPTH_HEAD && !t->ex[label[l]].border && !top_cut) { /* in full view */
+                const float gh = t->ex[label[l]].geodesic0;
+                t->head_len = t->head_len > 0 ? t->head_len + HEAD_LEN_ALPHA * (gh - t->head_len) : gh;
             }
             if (l == DRV_DEPTH_HEAD) {
                 float n = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # test_depth.sh MESHSTEER SRC DATA - issue 12's acceptance of the depth tracker, on the two captured
 # humans (samba, pjump) rendered by the test camera: `meshsteer depth-eval` at the default placement
-# (2.5 m, facing the camera) and at one turned placement per sequence. Asserts head, hand and foot
+# (2.5 m, facing the camera) and at one turned placement per sequence (two for pjump: its hands
+# at -20 degrees were the grid's worst cell at 2.5 m). Asserts head, hand and foot
 # within 10 cm, side_correct, and that markers reported with a certain side are (almost) never the
 # other side's. Thresholds are what the tracker reaches (docs/PERFORMANCE.md, the grid), not lower.
 # Skips (77) without the data.
@@ -38,7 +39,8 @@ check() {
 
 #      seq   yaw frames  head hand foot side  side_wrong
 check samba 0   :       0.95 0.9  0.9  0.9   0.02
-check pjump 0   :       0.6  0.9  0.95 0.9   0.02
+check pjump 0   :       0.6  0.9  0.95 0.94  0.02
 check samba 20  :       0.95 0.95 0.8  0.9   0.02
-check pjump 20  :       0.48 0.8  0.95 0.9   0.02
+check pjump 20  :       0.65 0.82 0.95 0.9   0.02
+check pjump -20 :       0.55 0.8  0.95 0.9   0.02
 echo "depth: ok"
