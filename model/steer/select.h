@@ -50,6 +50,7 @@ typedef struct mdl_select_cand {
     int use_motion_dir, linear, overlap_rings, max_modes, max_clusters;
     double ridge;
     double filter_noise, train_noise;
+    double kblend;                                      /* 0: the part model */
     double err_clean, base_clean, err_noisy, base_noisy; /* means over held-out frames, / diagonal */
     double score;
 } mdl_select_cand;
