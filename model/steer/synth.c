@@ -484,6 +484,8 @@ static int synth_param_slots(mdl_steer_synth *s, char *err)
 int mdl__steer_synth_params_layout(const mdl_steer_synth *s, mdl_params_layout *out)
 {
     const struct mdl_steer *m = s->m;
+    if (m->kb_h > 0) /* the kernel blend (kblend.h) has no parts to send */
+        return -ENOTSUP;
     out->ninst = m->ninst;
     out->nparts = m->nparts;
     out->part_off = m->pv_off;
@@ -503,6 +505,8 @@ int mdl__steer_synth_params_layout(const mdl_steer_synth *s, mdl_params_layout *
 int mdl__steer_synth_params(const mdl_steer_synth *s, float *out)
 {
     const struct mdl_steer *m = s->m;
+    if (m->kb_h > 0)
+        return -ENOTSUP;
     if (!s->have_params)
         return -EAGAIN;
     for (int i = 0; i < m->ninst; i++) {
