@@ -34,7 +34,10 @@
  *        mdl__steer_fit_regress); overlap rings 2 / 1 / 3; modes at most 6 / 3; parts at most 24
  *        / MDL_SELECT_FEW_PARTS (these rebuild the fold models on the fold's partition: the
  *        clustering runs once per fold, and its state when it passed MDL_SELECT_FEW_PARTS parts is
- *        the smaller partition, cluster.h mdl__cluster_snap).
+ *        the smaller partition, cluster.h mdl__cluster_snap); last, the part model / the kernel
+ *        blend of the training meshes with bandwidth factor MDL_KBLEND_H (kblend.h; it uses none
+ *        of the part model's options but the input filter), and when a blend is chosen, the
+ *        input filter toggled with it.
  *      A candidate replaces the best only when its score is lower by more than 1 % (near-ties keep
  *      the default, the simpler and already documented model).
  *   5. The chosen options are applied to a final fit on all training frames.
