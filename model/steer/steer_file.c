@@ -205,14 +205,9 @@ static int parse_trailer(mdl__rbuf *b, struct mdl_steer *m)
         m->kb_h = mdl__get_f64(b, "kernel blend bandwidth");
         if (!b->rc && !(m->kb_h > 0 && m->kb_h < 1e3))
             return mdl__rfail(b, "the kernel blend's bandwidth factor is not within (0, 1000)");
+        /* mdl__get_f32s refuses non-finite values */
         m->kb_V = mdl__get_f32s(b, (size_t)m->ntrain * m->nv * 3, "kernel blend meshes");
         m->kb_mk = mdl__get_f32s(b, (size_t)m->ntrain * m->nmarkers * 3, "kernel blend markers");
-        for (size_t i = 0; !b->rc && i < (size_t)m->ntrain * m->nv * 3; i++)
-            if (!isfinite(m->kb_V[i]))
-                mdl__rfail(b, "a kernel blend mesh holds a non-finite value");
-        for (size_t i = 0; !b->rc && i < (size_t)m->ntrain * m->nmarkers * 3; i++)
-            if (!isfinite(m->kb_mk[i]))
-                mdl__rfail(b, "a kernel blend marker holds a non-finite value");
     }
     return b->rc;
 }
