@@ -292,6 +292,10 @@ typedef struct mdl_train_opts {
     double filter_noise;   /* with virtual markers: the marker noise (m) synthesis filters its
                               input markers for (steer/mfilter.h); 0 = no filter; -1: selected
                               between 0 and select_noise (0 without selection) */
+    double kblend;         /* with virtual markers: > 0 synthesises by the kernel blend of the
+                              training meshes with this bandwidth factor (steer/kblend.h) instead
+                              of the part model; 0 = the part model; -1: selected among 0 and
+                              MDL_KBLEND_H (0 without selection) */
     const char *name;      /* model name, stored in the file */
     mdl_progress_fn progress;
     void *progress_ud;

@@ -49,6 +49,10 @@ static const char usage_text[] =
     "  --filter-noise MM  with virtual markers: filter the input markers at synthesis for this\n"
     "                     much noise, gains from each marker's training motion (docs/MODEL.md;\n"
     "                     default: selected, 0 = off or the --cv-noise; off without selection)\n"
+    "  --kernel-blend H   with virtual markers: synthesise by the kernel blend of the training\n"
+    "                     meshes in marker space, bandwidth H x the nearest frame's marker fit,\n"
+    "                     instead of the part model (docs/MODEL.md; default: selected, 0 = the\n"
+    "                     part model, 0.5 or 1; the part model without selection)\n"
     "  --align-samples N  shared vertices per part used by alignment and shape steps (default\n"
     "                     16; 0 = all)\n"
     "  --cv-folds K       with virtual markers, the options marked \"selected\" that are not given\n"
@@ -189,7 +193,7 @@ int cmd_train(int argc, char **argv)
     enum { O_REST = 256, O_RIG, O_MARKERS, O_FRAMES, O_REPORT, O_NAME, O_CLUSTERS, O_MAXCL, O_TOL,
            O_OVERLAP, O_EXPL, O_MODES, O_RIDGE, O_BETA, O_ITER, O_MOTION, O_MSCALE, O_MUP, O_LINEAR,
            O_MWEIGHT, O_RELAX, O_SAMPLES, O_RBF, O_TNOISE, O_KIND, O_TEMPLATE, O_CORR, O_PERBONE,
-           O_FITREST, O_NOMOTION, O_CVFOLDS, O_CVNOISE, O_FNOISE };
+           O_FITREST, O_NOMOTION, O_CVFOLDS, O_CVNOISE, O_FNOISE, O_KBLEND };
     double tnoise_mm = -1, cvnoise_mm = 1000 * o.select_noise, fnoise_mm = -1;
     static const struct option lo[] = {
         {"mesh", 1, 0, 'm'},          {"rest", 1, 0, O_REST},         {"rig", 1, 0, O_RIG},
@@ -204,7 +208,8 @@ int cmd_train(int argc, char **argv)
         {"kind", 1, 0, O_KIND}, {"template", 1, 0, O_TEMPLATE}, {"correspondences", 1, 0, O_CORR},
         {"per-bone", 1, 0, O_PERBONE}, {"fit-rest", 0, 0, O_FITREST},
         {"no-motion-dir", 0, 0, O_NOMOTION}, {"cv-folds", 1, 0, O_CVFOLDS},
-        {"cv-noise", 1, 0, O_CVNOISE}, {"filter-noise", 1, 0, O_FNOISE}, {0, 0, 0, 0}};
+        {"cv-noise", 1, 0, O_CVNOISE}, {"filter-noise", 1, 0, O_FNOISE},
+        {"kernel-blend", 1, 0, O_KBLEND}, {0, 0, 0, 0}};
     int c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "m:o:h", lo, NULL)) != -1) {
@@ -230,6 +235,7 @@ int cmd_train(int argc, char **argv)
         case O_NOMOTION: o.use_motion_dir = 0; break;
         case O_CVFOLDS: if (cli_parse_int(cmd, "--cv-folds", optarg, &o.select_folds)) return CLI_EXIT_USAGE; break;
         case O_FNOISE: if (cli_parse_double(cmd, "--filter-noise", optarg, &fnoise_mm)) return CLI_EXIT_USAGE; break;
+        case O_KBLEND: if (cli_parse_double(cmd, "--kernel-blend", optarg, &o.kblend)) return CLI_EXIT_USAGE; break;
         case O_CVNOISE: if (cli_parse_double(cmd, "--cv-noise", optarg, &cvnoise_mm)) return CLI_EXIT_USAGE; break;
         case O_LINEAR: o.linear = 1; break;
         case O_RBF: o.linear = 0; break;
@@ -280,6 +286,8 @@ int cmd_train(int argc, char **argv)
     if (fnoise_mm != -1 && !(fnoise_mm >= 0 && fnoise_mm < 1000))
         return cli_usage_error(cmd, "--filter-noise must be within 0..1000 mm");
     o.filter_noise = fnoise_mm == -1 ? -1 : fnoise_mm / 1000.0;
+    if (o.kblend != -1 && !(o.kblend >= 0 && o.kblend < 1000))
+        return cli_usage_error(cmd, "--kernel-blend must be within 0..1000");
     if (o.ridge != -1 && !(o.ridge >= 0))
         return cli_usage_error(cmd, "--ridge must be >= 0");
 

@@ -3,6 +3,7 @@
  * allocates freely. */
 #include "steer/select.h"
 #include "steer/steer_internal.h"
+#include "steer/kblend.h"
 #include "core/rigid.h"
 #include "core/util.h"
 
@@ -27,6 +28,8 @@ void mdl__train_opts_resolve(const mdl_train_opts *in, mdl_train_opts *out)
         out->filter_noise = 0;
     if (out->train_noise < 0)
         out->train_noise = 0;
+    if (out->kblend < 0)
+        out->kblend = 0;
 }
 
 /* What one selection works on. */
@@ -158,6 +161,7 @@ static int score(sel_ctx *c, mdl__steer_fit **f, const mdl_train_opts *o, mdl_se
     cd->max_clusters = o->max_clusters;
     cd->filter_noise = o->filter_noise;
     cd->train_noise = o->train_noise;
+    cd->kblend = o->kblend;
     cd->err_clean = sum[0] / n;
     cd->base_clean = sum[1] / n;
     cd->err_noisy = sum[2] / n;
@@ -179,8 +183,9 @@ int mdl__steer_select(const mdl_meshseq *seq, const int *frames, int n, const md
         search_tn = opts->train_noise < 0 && opts->select_noise > 0,
         search_md = opts->use_motion_dir < 0, search_lin = opts->linear < 0,
         search_ridge = opts->ridge == -1, search_ov = opts->overlap_rings < 0,
-        search_modes = opts->max_modes < 0, search_cl = opts->max_clusters < 0 && opts->clusters <= 0;
-    if (K < 2 || !(search_filt || search_tn || search_md || search_lin || search_ridge || search_ov || search_modes || search_cl))
+        search_modes = opts->max_modes < 0, search_cl = opts->max_clusters < 0 && opts->clusters <= 0,
+        search_kb = opts->kblend < 0;
+    if (K < 2 || !(search_filt || search_tn || search_md || search_lin || search_ridge || search_ov || search_modes || search_cl || search_kb))
         return 0;
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
@@ -303,6 +308,31 @@ int mdl__steer_select(const mdl_meshseq *seq, const int *frames, int n, const md
             }
             res->ncand++;
         }
+    }
+    /* last, the kernel blend of the training meshes instead of the part model (kblend.h): the
+     * part model's options above are chosen first, so that they are the part model's best either
+     * way; the blend uses only the input filter among them, so when a blend is chosen the filter
+     * is tried again with it (toggled) */
+    static const double kb_alt[MDL_KBLEND_NH] = MDL_KBLEND_H;
+    for (int a = 0; search_kb && a <= MDL_KBLEND_NH && res->ncand < MDL_SELECT_MAX_CAND; a++) {
+        tr = cur;
+        if (a < MDL_KBLEND_NH) {
+            tr.kblend = kb_alt[a];
+        } else {
+            if (!(cur.kblend > 0) || !search_filt)
+                break;
+            tr.filter_noise = cur.filter_noise > 0 ? 0 : opts->select_noise;
+        }
+        mdl_select_cand *cd = &res->cand[res->ncand];
+        if ((rc = score(&c, best, &tr, cd, err)))
+            goto out;
+        if (cd->score < 0.99 * bs) {
+            bs = cd->score;
+            cur.kblend = tr.kblend;
+            cur.filter_noise = tr.filter_noise;
+            res->chosen = res->ncand;
+        }
+        res->ncand++;
     }
     *out = cur;
     clock_gettime(CLOCK_MONOTONIC, &t1);

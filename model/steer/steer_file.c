@@ -70,6 +70,8 @@ void mdl__steer_free(struct mdl_steer *m)
     free(m->reg);
     free(m->sel);
     free(m->mfilt);
+    free(m->kb_V);
+    free(m->kb_mk);
     free(m->hd_mesh);
     free(m->hd_rec);
     free(m->order);
@@ -164,12 +166,20 @@ void mdl__steer_save(const struct mdl_steer *m, mdl__wbuf *b)
     mdl__put_i32s(b, m->blend_inst, (size_t)m->blend_off[m->nv]);
     mdl__put_i32s(b, m->blend_local, (size_t)m->blend_off[m->nv]);
     mdl__put_f32s(b, m->blend_w, (size_t)m->blend_off[m->nv]);
-    /* the trailer (only with the input filter, mfilter.h): u32 version 1, f64 filter noise,
-     * nmarkers x (alpha, beta) f64 */
-    if (m->mfilt) {
-        mdl__put_u32(b, 1);
-        mdl__put_f64(b, m->filter_noise);
-        mdl__put_f64s(b, m->mfilt, 2 * (size_t)m->nmarkers);
+    /* the trailer (only with the input filter, mfilter.h, or the kernel blend, kblend.h):
+     * version 1: u32 1, f64 filter noise, nmarkers x (alpha, beta) f64;
+     * version 2: u32 2, f64 filter noise (0: no filter), the gains if > 0, f64 kernel bandwidth
+     * factor (> 0), ntrain x nv x 3 f32 training meshes, ntrain x nmarkers x 3 f32 rig vertices */
+    if (m->mfilt || m->kb_h > 0) {
+        mdl__put_u32(b, m->kb_h > 0 ? 2 : 1);
+        mdl__put_f64(b, m->mfilt ? m->filter_noise : 0);
+        if (m->mfilt)
+            mdl__put_f64s(b, m->mfilt, 2 * (size_t)m->nmarkers);
+        if (m->kb_h > 0) {
+            mdl__put_f64(b, m->kb_h);
+            mdl__put_f32s(b, m->kb_V, (size_t)m->ntrain * m->nv * 3);
+            mdl__put_f32s(b, m->kb_mk, (size_t)m->ntrain * m->nmarkers * 3);
+        }
     }
 }
 
@@ -178,16 +188,27 @@ static int parse_trailer(mdl__rbuf *b, struct mdl_steer *m)
 {
     if (b->rc || b->n - b->at < 4) /* none (fewer bytes are reported as not read) */
         return b->rc;
-    if (mdl__get_int(b, "trailer version", 1, 1) != 1 || b->rc)
+    int ver = mdl__get_int(b, "trailer version", 1, 2);
+    if (b->rc)
         return b->rc;
     m->filter_noise = mdl__get_f64(b, "filter noise");
-    if (!b->rc && !(m->filter_noise > 0 && m->filter_noise < 1))
+    if (!b->rc && !(m->filter_noise > 0 && m->filter_noise < 1) && !(ver == 2 && m->filter_noise == 0))
         return mdl__rfail(b, "the input filter's noise is not within (0, 1) m");
-    m->mfilt = mdl__get_f64s(b, 2 * (size_t)m->nmarkers, "input filter gains");
-    for (int j = 0; j < m->nmarkers && !b->rc; j++)
-        if (!(m->mfilt[2 * j] > 0 && m->mfilt[2 * j] <= 1 && m->mfilt[2 * j + 1] >= 0 &&
-              m->mfilt[2 * j + 1] < 2))
-            mdl__rfail(b, "an input filter gain is outside alpha (0, 1], beta [0, 2)");
+    if (m->filter_noise > 0) {
+        m->mfilt = mdl__get_f64s(b, 2 * (size_t)m->nmarkers, "input filter gains");
+        for (int j = 0; j < m->nmarkers && !b->rc; j++)
+            if (!(m->mfilt[2 * j] > 0 && m->mfilt[2 * j] <= 1 && m->mfilt[2 * j + 1] >= 0 &&
+                  m->mfilt[2 * j + 1] < 2))
+                mdl__rfail(b, "an input filter gain is outside alpha (0, 1], beta [0, 2)");
+    }
+    if (ver == 2 && !b->rc) {
+        m->kb_h = mdl__get_f64(b, "kernel blend bandwidth");
+        if (!b->rc && !(m->kb_h > 0 && m->kb_h < 1e3))
+            return mdl__rfail(b, "the kernel blend's bandwidth factor is not within (0, 1000)");
+        /* mdl__get_f32s refuses non-finite values */
+        m->kb_V = mdl__get_f32s(b, (size_t)m->ntrain * m->nv * 3, "kernel blend meshes");
+        m->kb_mk = mdl__get_f32s(b, (size_t)m->ntrain * m->nmarkers * 3, "kernel blend markers");
+    }
     return b->rc;
 }
 
@@ -635,15 +656,19 @@ static void steer_describe(const void *impl, const mdl_model *mm, char *buf, siz
     } else {
         mdl__appendf(buf, len, at, "filter     none\n");
     }
+    if (m->kb_h > 0)
+        mdl__appendf(buf, len, at, "kernel     synthesis is the kernel blend of the %d training meshes, bandwidth "
+                     "%g x the nearest frame's marker fit (kblend.h); the parts above are unused\n",
+                     m->ntrain, m->kb_h);
     if (m->sel) {
         const mdl_select_cand *c = &m->sel->cand[m->sel->chosen];
         char rd[32];
         snprintf(rd, sizeof rd, "%g", c->ridge);
         mdl__appendf(buf, len, at, "selection  %d candidates, %d folds, %.2f s; chose motion directions %s, %s, "
-                     "ridge %s, input filter %s, train noise %g mm, overlap %d, modes <= %d, parts <= %d (score %.3f)\n",
+                     "ridge %s, input filter %s, train noise %g mm, overlap %d, modes <= %d, parts <= %d, kernel blend %g (score %.3f)\n",
                      m->sel->ncand, m->sel->folds, m->sel->seconds, c->use_motion_dir ? "on" : "off",
                      c->linear == 1 ? "linear" : "rbf", c->ridge < 0 ? "leave-one-out" : rd, c->filter_noise > 0 ? "on" : "off", 1000 * c->train_noise,
-                     c->overlap_rings, c->max_modes, c->max_clusters, c->score);
+                     c->overlap_rings, c->max_modes, c->max_clusters, c->kblend, c->score);
     }
 }
 
@@ -689,6 +714,7 @@ static void steer_report(const void *impl, const mdl_model *mm, void *obj)
             else
                 cJSON_AddNumberToObject(e, "ridge", c->ridge);
             cJSON_AddNumberToObject(e, "filter_noise_m", c->filter_noise);
+            cJSON_AddNumberToObject(e, "kernel_blend", c->kblend);
             cJSON_AddNumberToObject(e, "train_noise_m", c->train_noise);
             cJSON_AddNumberToObject(e, "overlap_rings", c->overlap_rings);
             cJSON_AddNumberToObject(e, "max_modes", c->max_modes);

@@ -79,6 +79,10 @@ struct mdl_steer {
     double *mfilt;            /* nmarkers x 2: the input filter's gains (mfilter.h), or NULL (off;
                                  files before it) */
     double filter_noise;      /* the sigma_n they were made for (m; report) */
+    double kb_h;              /* > 0: synthesis is the kernel blend of the training meshes
+                                 (kblend.h) with this bandwidth factor, not the part model */
+    float *kb_V;              /* with kb_h: ntrain x nv x 3, the training meshes */
+    float *kb_mk;             /* with kb_h: ntrain x nmarkers x 3, their rig vertices */
     double place_R[9], place_o[3];
     double rec_heading, rec_origin[3];
 

@@ -35,6 +35,7 @@
 #include "steer/posefeat.h"
 #include "steer/heading.h"
 #include "steer/mfilter.h"
+#include "steer/kblend.h"
 #include "core/linalg.h"
 #include "steer/steer_internal.h"
 #include "steer/regress.h"
@@ -122,6 +123,7 @@ struct mdl_steer_synth {
     int nslots;
     int *slot_entry, *slot_inst;
     float *slot_w;
+    double *kb;                /* with the kernel blend (m->kb_h > 0): its scratch (kblend.h) */
 };
 
 void mdl__steer_synth_destroy(mdl_steer_synth *s)
@@ -180,6 +182,7 @@ void mdl__steer_synth_destroy(mdl_steer_synth *s)
     free(s->slot_entry);
     free(s->slot_inst);
     free(s->slot_w);
+    free(s->kb);
     free(s);
 }
 
@@ -234,6 +237,8 @@ static int synth_scratch(mdl_steer_synth *s, char *err)
     s->rhs = mdl__calloc((size_t)maxk, sizeof(double));
     s->acc = mdl__calloc((size_t)m->nv * 4, sizeof(double));
     s->cnt = mdl__calloc((size_t)m->nv, sizeof(int));
+    if (m->kb_h > 0 && !(s->kb = mdl__calloc(MDL_KBLEND_SCRATCH(m->ntrain, nm), sizeof(double))))
+        return synth_oom(err);
     if (!s->P || !s->Pprev || !s->Plast || !s->seen || !s->fx || !s->fv || !s->finit || !s->mb || !s->mvalid || !s->feat || !s->row ||
         !s->z || !s->out || !s->iq || !s->iRp || !s->iR || !s->it || !s->flam || !s->rhs || !s->acc ||
         !s->cnt)
@@ -479,6 +484,8 @@ static int synth_param_slots(mdl_steer_synth *s, char *err)
 int mdl__steer_synth_params_layout(const mdl_steer_synth *s, mdl_params_layout *out)
 {
     const struct mdl_steer *m = s->m;
+    if (m->kb_h > 0) /* the kernel blend (kblend.h) has no parts to send */
+        return -ENOTSUP;
     out->ninst = m->ninst;
     out->nparts = m->nparts;
     out->part_off = m->pv_off;
@@ -498,6 +505,8 @@ int mdl__steer_synth_params_layout(const mdl_steer_synth *s, mdl_params_layout *
 int mdl__steer_synth_params(const mdl_steer_synth *s, float *out)
 {
     const struct mdl_steer *m = s->m;
+    if (m->kb_h > 0)
+        return -ENOTSUP;
     if (!s->have_params)
         return -EAGAIN;
     for (int i = 0; i < m->ninst; i++) {
@@ -930,6 +939,14 @@ int mdl__steer_synth_frame(mdl_steer_synth *s, const float *markers, const uint8
     }
     info->markers_missing = missing;
     info->markers_held = held;
+    if (m->kb_h > 0) { /* the kernel blend instead of the part model (kblend.h); held markers
+                          count as present */
+        int rc = mdl__kblend_frame(m->kb_V, m->kb_mk, m->ntrain, m->nv, nm, m->kb_h, s->P, s->seen,
+                                   s->kb, Vout);
+        if (rc)
+            info->reference_lost = 1;
+        return rc;
+    }
     int refok = 1;
     for (int r = 0; r < m->nref; r++)
         refok &= s->seen[m->ref[r]];

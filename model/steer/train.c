@@ -71,6 +71,7 @@ void mdl_train_opts_default(mdl_train_opts *o)
     o->select_folds = 0; /* the library keeps training fast; `meshsteer train` sets MDL_SELECT_FOLDS */
     o->select_noise = MDL_SELECT_NOISE;
     o->filter_noise = -1;
+    o->kblend = -1;
     o->name = "model";
 }
 
@@ -1381,6 +1382,22 @@ int mdl__steer_fit_regress(mdl__steer_fit *f, const mdl_train_opts *o, char *err
             return oom(err);
         mdl__mfilter_train(st->Pv, st->T, (size_t)st->nm * 3, st->nm, o->filter_noise, m->mfilt);
         m->filter_noise = o->filter_noise;
+    }
+    /* the kernel blend (kblend.h): the training meshes and their rig vertices */
+    free(m->kb_V);
+    free(m->kb_mk);
+    m->kb_V = m->kb_mk = NULL;
+    m->kb_h = 0;
+    if (!st->markers && o->kblend > 0) {
+        size_t fr = (size_t)st->nv * 3;
+        m->kb_V = mdl__calloc((size_t)st->T * fr, sizeof *m->kb_V);
+        m->kb_mk = mdl__calloc((size_t)st->T * st->nm * 3, sizeof *m->kb_mk);
+        if (!m->kb_V || !m->kb_mk)
+            return oom(err);
+        for (int i = 0; i < st->T; i++)
+            memcpy(m->kb_V + i * fr, st->seq->V + (size_t)st->frames[i] * fr, fr * sizeof(float));
+        memcpy(m->kb_mk, st->Pv, sizeof(float) * (size_t)st->T * st->nm * 3);
+        m->kb_h = o->kblend;
     }
     return train_regressions(st, err);
 }

@@ -71,8 +71,9 @@ int main(void)
            r.markers_dropped, r.mean_err, r.max_bbox_excess);
     ASSERT_INT_GT(r.markers_dropped, 0);
     ASSERT_INT_EQ(r.nan_count, 0);
-    /* observed (seed 1): mean 0.0180, box excess 0.0084. The run is deterministic; the margins
-     * (1.4x, 1.8x) leave room for other BLAS kernels' rounding and small training changes, while
+    /* observed (seed 1): mean 0.0182, box excess 0.0101 (0.0180, 0.0084 with blocks of 2 in the
+     * option selection, select.h). The run is deterministic; the margins
+     * (1.4x, 1.5x) leave room for other BLAS kernels' rounding and small training changes, while
      * a limb thrown off by a lost marker moves whole parts by tenths of the diagonal */
     ASSERT_LE(r.mean_err, 0.025);
     ASSERT_LE(r.max_bbox_excess, 0.015);

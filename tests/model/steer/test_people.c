@@ -1,14 +1,13 @@
 /* test_people.c - the steering model on two captured humans with plain seven-marker rigs (issue
  * 12: head, hands, feet, pelvis, neck; reference edge pelvis -> neck, the heading from all markers,
  * heading.c), default options, trained on the even frames of the first 120 and driven by the rig
- * vertices of the odd ones:
- *   samba (rigs/samba-7.json) and pjump (rigs/pjump-7.json) beat the nearest-frame baseline.
- * The default options are chosen by the option selection (select.h) and include its input filter
- * (mfilter.h), and the heading fit's weights allow for that noise (heading.h). Observed
- * (docs/PERFORMANCE.md): samba 0.902, pjump 0.737 of the baseline; with 10 mm noise 1.412 and
- * 1.262 (before the selection: 0.90, 0.87; 2.35, 1.61). The goal of issue
- * 12 (0.6 x, and below the baseline under noise) is not met yet; these bounds sit just above what
- * is observed, so that a regression fails. */
+ * vertices of the odd ones: samba (rigs/samba-7.json) and pjump (rigs/pjump-7.json) meet issue
+ * 12's bar, at most 0.6 x the nearest-frame baseline clean and below it with 10 mm noise.
+ * The default options are chosen by the option selection (select.h); on both people it chooses
+ * the kernel blend of the training meshes (kblend.h) over the part model. Observed
+ * (docs/PERFORMANCE.md): samba 0.473, pjump 0.387 of the baseline; with 10 mm noise 0.589 and
+ * 0.508 (the part model alone: 0.90, 0.74; 1.41, 1.26). The bounds sit just above what is
+ * observed, so that a regression fails, and never above the issue's bar. */
 #include "model.h"
 #include "test.h"
 
@@ -36,6 +35,7 @@ static void run(const char *name, const char *pc2, const char *rest, const char 
            r.baseline_nn_mean_err, ratio, max_ratio);
     ASSERT_INT_EQ(r.nan_count, 0);
     ASSERT(ratio <= max_ratio);
+    ASSERT(ratio <= 0.6); /* issue 12 */
     mdl_eval_result_fini(&r);
     o.noise_m = 0.010;
     ASSERT_OK(mdl_eval_run(m, s, te, nte, &o, &r, err), err);
@@ -44,6 +44,7 @@ static void run(const char *name, const char *pc2, const char *rest, const char 
            r.baseline_nn_mean_err, ratio, max_noise_ratio);
     ASSERT_INT_EQ(r.nan_count, 0);
     ASSERT(ratio <= max_noise_ratio);
+    ASSERT(ratio < 1); /* issue 12 */
     mdl_eval_result_fini(&r);
     free(tr);
     free(te);
@@ -55,7 +56,7 @@ static void run(const char *name, const char *pc2, const char *rest, const char 
 int main(void)
 {
     mdl_set_blas_threads(1);
-    run("samba-7", "meshes/samba/samba.pc2", "meshes/samba/rest.obj", "rigs/samba-7.json", 0.93, 1.45);
-    run("pjump-7", "meshes/pjump/pjump.pc2", "meshes/pjump/rest.obj", "rigs/pjump-7.json", 0.76, 1.30);
+    run("samba-7", "meshes/samba/samba.pc2", "meshes/samba/rest.obj", "rigs/samba-7.json", 0.49, 0.61);
+    run("pjump-7", "meshes/pjump/pjump.pc2", "meshes/pjump/rest.obj", "rigs/pjump-7.json", 0.40, 0.53);
     return 0;
 }

@@ -5,7 +5,8 @@
  *   - the selection on horse-gallop (0:24:2): the report lists the candidates with their
  *     validation errors and exactly one choice, no worse than the defaults; two runs give the
  *     same report (deterministic); options given are not searched; select_folds 0 runs none;
- *   - a model with the filter saved and loaded synthesises the same frames (the STER trailer). */
+ *   - a model with the filter saved and loaded synthesises the same frames (the STER trailer);
+ *     so does one with the kernel blend (kblend.h; trailer version 2), and the selection tries it. */
 #include "model.h"
 #include "steer/mfilter.h"
 #include "core/util.h"
@@ -113,7 +114,7 @@ int main(void)
     cJSON *sel = cJSON_GetObjectItem(rep, "selection");
     ASSERT(sel != NULL);
     cJSON *cands = cJSON_GetObjectItem(sel, "candidates");
-    int nc = cJSON_GetArraySize(cands), chosen = -1, nchosen = 0, md_tried = 0;
+    int nc = cJSON_GetArraySize(cands), chosen = -1, nchosen = 0, md_tried = 0, kb_tried = 0;
     ASSERT_INT_GE(nc, 5);
     for (int i = 0; i < nc; i++) {
         cJSON *c = cJSON_GetArrayItem(cands, i);
@@ -121,6 +122,7 @@ int main(void)
         ASSERT(cJSON_GetNumberValue(cJSON_GetObjectItem(c, "val_err_noisy")) > 0);
         ASSERT(cJSON_GetNumberValue(cJSON_GetObjectItem(c, "val_baseline_noisy")) > 0);
         md_tried |= cJSON_IsTrue(cJSON_GetObjectItem(c, "motion_dir"));
+        kb_tried |= cJSON_GetNumberValue(cJSON_GetObjectItem(c, "kernel_blend")) > 0;
         if (cJSON_IsTrue(cJSON_GetObjectItem(c, "chosen"))) {
             chosen = i;
             nchosen++;
@@ -128,6 +130,7 @@ int main(void)
     }
     ASSERT_INT_EQ(nchosen, 1);
     ASSERT_INT_EQ(md_tried, 1);
+    ASSERT_INT_EQ(kb_tried, 1);
     ASSERT_INT_EQ((int)cJSON_GetNumberValue(cJSON_GetObjectItem(sel, "chosen")), chosen);
     double s0 = cJSON_GetNumberValue(cJSON_GetObjectItem(cJSON_GetArrayItem(cands, 0), "score"));
     double sc = cJSON_GetNumberValue(cJSON_GetObjectItem(cJSON_GetArrayItem(cands, chosen), "score"));
@@ -191,6 +194,27 @@ int main(void)
     cJSON_Delete(rep);
     free(js);
     mdl_model_destroy(m);
+
+    /* the kernel blend (kblend.h) survives the file (trailer version 2), with and without the
+     * filter */
+    for (int f = 0; f < 2; f++) {
+        o.kblend = 0.7;
+        o.filter_noise = f ? 0.010 : 0;
+        m = train(horse, rig, &o);
+        e1 = noisy_err(m, horse);
+        strcpy(path, "/tmp/test_select_XXXXXX");
+        fd = mkstemp(path);
+        ASSERT(fd >= 0);
+        close(fd);
+        ASSERT_OK(mdl_model_save(m, path, err), err);
+        ASSERT_OK(mdl_model_load(path, &ml, err), err);
+        remove(path);
+        e2 = noisy_err(ml, horse);
+        printf("kernel blend, filter %d, 10 mm noise: trained %.6f, loaded %.6f\n", f, e1, e2);
+        ASSERT(e1 == e2 && e1 > 0);
+        mdl_model_destroy(ml);
+        mdl_model_destroy(m);
+    }
 
     mdl_rig_destroy(rig);
     mdl_meshseq_destroy(horse);
