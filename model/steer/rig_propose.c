@@ -351,6 +351,37 @@ static int front_most(const prop *p, const uint8_t *sel, const double f[3])
     return best;
 }
 
+/* The middle of the top of field F over the part's vertices with Dreg < rad: the vertex, among
+ * those within `cap` of F's maximum over that set, nearest their centroid. A region's centre, not
+ * its one extreme vertex, which wanders over a flat top (a crown, a back) with the pose. -1 if the
+ * set is empty. */
+static int top_middle(const prop *p, const double *F, const double *Dreg, double rad, double cap)
+{
+    double top = -INFINITY, c[3] = {0, 0, 0}, n = 0, bd = INFINITY;
+    for (int v = 0; v < p->nv; v++)
+        if (p->part[v] && Dreg[v] < rad && F[v] > top)
+            top = F[v];
+    if (!isfinite(top))
+        return -1;
+    for (int v = 0; v < p->nv; v++)
+        if (p->part[v] && Dreg[v] < rad && F[v] >= top - cap) {
+            for (int k = 0; k < 3; k++)
+                c[k] += p->V[3 * (size_t)v + k];
+            n++;
+        }
+    int best = -1;
+    for (int v = 0; v < p->nv; v++)
+        if (p->part[v] && Dreg[v] < rad && F[v] >= top - cap) {
+            const float *x = p->V + 3 * (size_t)v;
+            double d[3] = {x[0] - c[0] / n, x[1] - c[1] / n, x[2] - c[2] / n};
+            if (dot3(d, d) < bd) {
+                bd = dot3(d, d);
+                best = v;
+            }
+        }
+    return best;
+}
+
 typedef struct work {
     double *Dc, *near, *Dt[MAX_TIPS], *tmp;
     uint8_t *sel;
@@ -579,10 +610,22 @@ static int propose_quadruped(prop *p, work *w, const int *tips, mdl_rig **out,
                             "a third of a leg (%.3g < %.3g): the body lies down in this frame, or "
                             "--up is wrong",
                             k ? "croup" : "withers", top[k], vdot(p, top[k], p->up) - hoofh, leg / 3);
+    /* muzzle: the farthest tip of the head from the withers may be an ear (horse-gallop frames
+     * 10 and 30: an ear 36 cm from the muzzle); the muzzle is the middle of the part of the head
+     * (within 0.35 R of its tip) farthest from the withers, which the ears are not: they stand on
+     * the poll, a head's length nearer the withers along the neck's crest */
+    int muzzle = tips[mi];
+    if ((e = geodesic(p, top[0], w->tmp, err)) != 0)
+        return e;
+    {
+        int m = top_middle(p, w->tmp, w->Dt[mi], 0.35 * p->R, CAP * p->R);
+        if (m >= 0)
+            muzzle = m;
+    }
     static const char *const names[] = {"withers", "croup", "lf_hoof", "rf_hoof",
                                         "lh_hoof", "rh_hoof", "muzzle",  "tail"};
     static const int limbs[][2] = {{0, 2}, {0, 3}, {1, 4}, {1, 5}, {0, 6}, {1, 7}};
-    int vert[8] = {top[0], top[1], idx[0], idx[1], idx[2], idx[3], tips[mi], tips[ti]};
+    int vert[8] = {top[0], top[1], idx[0], idx[1], idx[2], idx[3], muzzle, tips[ti]};
     if ((e = make_rig(out, 8, names, NULL, vert, 1, 0, 6, limbs, err)) != 0)
         return e;
     for (int q = 0; q < 3; q++) {
