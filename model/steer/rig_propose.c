@@ -581,7 +581,7 @@ static int propose_quadruped(prop *p, work *w, const int *tips, mdl_rig **out,
             idx[2 * pr + 1] = tips[hoof[a]];
         }
     }
-    /* withers and croup: the highest vertex of the slab through the legs' roots */
+    /* withers and croup: the top of the slab through the legs' roots */
     int top[2] = {-1, -1};
     for (int k = 0; k < 2; k++) {
         double s = dot3(k ? hind : front, fwd), best = -INFINITY;
@@ -596,6 +596,15 @@ static int propose_quadruped(prop *p, work *w, const int *tips, mdl_rig **out,
         if (top[k] < 0)
             return mdl__err(err, -EINVAL, "rig: found no back above the %s legs",
                             k ? "hind" : "front");
+        /* the middle of the slab's top, not its highest vertex: a back is nearly level (horse-
+         * gallop: 3 cm over 36 cm), so its highest vertex wanders along it with the pose */
+        for (int v = 0; v < p->nv; v++) {
+            w->tmp[v] = vdot(p, v, p->up);
+            w->near[v] = fabs(vdot(p, v, fwd) - s); /* scratch: the tips are found */
+        }
+        int m = top_middle(p, w->tmp, w->near, 0.015 * p->R, CAP * p->R);
+        if (m >= 0)
+            top[k] = m;
     }
     double hoofh = 0;
     for (int i = 0; i < 4; i++)
@@ -794,5 +803,92 @@ done:
         free(w.Dt[i]);
     free(p.part);
     mdl__graph_fini(&p.g);
+    return e;
+}
+
+/* Several frames: each proposed alone, then per marker the medoid of its vertices (measured in the
+ * first frame), over the frames of the majority body. A marker's vertex in one frame can sit on
+ * either side of a flat region (a crown, a back, a cut neck); the medoid is the vertex the
+ * majority of frames cluster around, so it changes little with the set of frames. */
+int mdl_rig_propose_frames(const float *V, int nv, int nframes, const uint32_t *F, int nf,
+                           const float up[3], int body, mdl_rig **out, mdl_rig_proposal *info,
+                           int *nused, char *err)
+{
+    *out = NULL;
+    if (nused)
+        *nused = 0;
+    if (nframes < 1)
+        return mdl__err(err, -EINVAL, "rig: no frames to propose from");
+    mdl_rig **rigs = calloc((size_t)nframes, sizeof *rigs);
+    mdl_rig_proposal *infos = calloc((size_t)nframes, sizeof *infos);
+    int *cand = malloc((size_t)nframes * sizeof *cand), e = 0, nb[3] = {0, 0, 0};
+    char first_err[MDL_ERR_LEN] = "";
+    if (!rigs || !infos || !cand) {
+        e = mdl__err(err, -ENOMEM, "rig: out of memory");
+        goto done;
+    }
+    for (int k = 0; k < nframes; k++) {
+        char e1[MDL_ERR_LEN] = "";
+        int r = mdl_rig_propose(V + (size_t)k * nv * 3, nv, F, nf, up, body, &rigs[k], &infos[k], e1);
+        if (r == -ENOMEM) {
+            e = mdl__err(err, r, "%s", e1);
+            goto done;
+        }
+        if (r) {
+            if (!first_err[0])
+                snprintf(first_err, sizeof first_err, "frame %d: %s", k, e1);
+            rigs[k] = NULL;
+            continue;
+        }
+        nb[infos[k].body]++;
+    }
+    int chosen = nb[MDL_BODY_QUADRUPED] > nb[MDL_BODY_HUMAN] ? MDL_BODY_QUADRUPED : MDL_BODY_HUMAN;
+    int ref = -1, n = 0;
+    for (int k = 0; k < nframes; k++)
+        if (rigs[k] && infos[k].body == chosen) {
+            if (ref < 0)
+                ref = k;
+            n++;
+        }
+    if (ref < 0) {
+        e = mdl__err(err, -EINVAL, "rig: every frame was refused (%s)", first_err);
+        goto done;
+    }
+    mdl_rig *r = rigs[ref];
+    for (int i = 0; i < r->nmarkers; i++) {
+        int nc = 0;
+        for (int k = 0; k < nframes; k++)
+            if (rigs[k] && infos[k].body == chosen)
+                cand[nc++] = rigs[k]->markers[i].vertex; /* same body: same names, same order */
+        double best = INFINITY;
+        int bv = r->markers[i].vertex;
+        for (int a = 0; a < nc; a++) {
+            const float *x = V + 3 * (size_t)cand[a];
+            double s = 0;
+            for (int b = 0; b < nc; b++) {
+                const float *y = V + 3 * (size_t)cand[b];
+                double d[3] = {x[0] - y[0], x[1] - y[1], x[2] - y[2]};
+                s += sqrt(dot3(d, d));
+            }
+            if (s < best) {
+                best = s;
+                bv = cand[a];
+            }
+        }
+        r->markers[i].vertex = bv;
+    }
+    *out = r;
+    rigs[ref] = NULL;
+    if (info)
+        *info = infos[ref];
+    if (nused)
+        *nused = n;
+done:
+    if (rigs)
+        for (int k = 0; k < nframes; k++)
+            mdl_rig_destroy(rigs[k]);
+    free(rigs);
+    free(infos);
+    free(cand);
     return e;
 }
