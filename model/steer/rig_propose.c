@@ -382,6 +382,39 @@ static int top_middle(const prop *p, const double *F, const double *Dreg, double
     return best;
 }
 
+/* Along the shortest path from `from` to the source of the distance field Dto (traced back down
+ * Dto: each step to the neighbour u of least Dto[u] + |u - v|, Dijkstra's predecessor), the
+ * vertex of least Da + Db; -1 if the path is broken. */
+static int path_min(const prop *p, const double *Dto, int from, int to, const double *Da,
+                    const double *Db)
+{
+    int v = from, best = -1;
+    double bs = INFINITY;
+    for (int step = 0; step < p->nv; step++) {
+        if (Da[v] + Db[v] < bs) {
+            bs = Da[v] + Db[v];
+            best = v;
+        }
+        if (v == to)
+            return best;
+        int next = -1;
+        double nd = INFINITY;
+        for (int i = p->g.off[v]; i < p->g.off[v + 1]; i++) {
+            int u = p->g.nbr[i];
+            const float *x = p->V + 3 * (size_t)u, *y = p->V + 3 * (size_t)v;
+            double d[3] = {x[0] - y[0], x[1] - y[1], x[2] - y[2]};
+            if (p->part[u] && Dto[u] < Dto[v] && Dto[u] + sqrt(dot3(d, d)) < nd) {
+                nd = Dto[u] + sqrt(dot3(d, d));
+                next = u;
+            }
+        }
+        if (next < 0)
+            return -1;
+        v = next;
+    }
+    return -1;
+}
+
 typedef struct work {
     double *Dc, *near, *Dt[MAX_TIPS], *tmp;
     uint8_t *sel;
@@ -630,6 +663,16 @@ static int propose_quadruped(prop *p, work *w, const int *tips, mdl_rig **out,
         int m = top_middle(p, w->tmp, w->Dt[mi], 0.35 * p->R, CAP * p->R);
         if (m >= 0)
             muzzle = m;
+    }
+    /* croup: the slab over the hind legs follows their swing (horse-gallop: its top moved 36 cm
+     * along the back between frames). Geodesic distances barely change with the pose, so: the
+     * vertex, on the shortest path from the tail's tip to the withers (which runs along the top
+     * of the rump and the back), of least summed geodesic distance to the two hind hooves (over
+     * the hips). The path is traced back down the withers' distance field. */
+    {
+        int best = path_min(p, w->tmp, tips[ti], top[0], w->Dt[hoof[2]], w->Dt[hoof[3]]);
+        if (best >= 0 && vdot(p, best, p->up) - hoofh >= leg / 3)
+            top[1] = best;
     }
     static const char *const names[] = {"withers", "croup", "lf_hoof", "rf_hoof",
                                         "lh_hoof", "rh_hoof", "muzzle",  "tail"};
