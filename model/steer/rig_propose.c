@@ -25,7 +25,9 @@
  *      hand rigs place it); feet = the two tips farthest from the head; hands = the other two.
  *      Quadruped (6 tips): hooves = the four lowest tips along up; front hooves = the pair nearer
  *      the muzzle end; muzzle vs tail: the end whose cross-section (the ring of vertices at
- *      geodesic distance 0.15 L..0.2 L from the tip, L = D_c(tip)) is the wider.
+ *      geodesic distance 0.15 L..0.2 L from the tip, L = D_c(tip)) is the wider. The muzzle
+ *      marker: the middle of the part of that end (within 0.35 R of its tip) farthest from the
+ *      withers (the end's tip may be an ear; the ears stand a head's length nearer the withers).
  *   4. Forward f (unit, perpendicular to up): human: the toes. Per foot, the leg's axis a runs
  *      from the centroid of the ring at 0.25 L..0.3 L from the tip (ankle) to that of the ring at
  *      0.4 L..0.45 L (shin); the tip's offset from that axis points where the foot points.
@@ -41,8 +43,11 @@
  *      head and to the feet differ least (within 0.02 R: half-way between head and feet, on the
  *      belly); neck = the front-most vertex of the hands' mid-line at 0.30..0.36 of the head's
  *      distance to the pelvis from the head (the base of the neck).
- *      Quadruped: withers / croup = the highest vertex (along up) of the slab, 0.03 R thick
- *      across f, through the front / hind legs' roots.
+ *      Quadruped: withers = the middle of the top (within 0.03 R of the highest, along up) of
+ *      the slab, 0.03 R thick across f, through the front legs' roots; croup = the vertex, on the
+ *      shortest path from the tail's tip to the withers (along the rump and the back), of least
+ *      summed geodesic distance to the hind hooves: over the hips, found by geodesic distances
+ *      only, since the slab through the hind legs' roots follows their swing.
  *   7. Checks (a wrong --up, a mesh without the body's tips): fewer tips than the body needs; a
  *      human whose feet are not below the head by at least a third of the head-foot geodesic
  *      distance; a quadruped with fewer than three of its four lowest tips hanging below their
@@ -57,6 +62,10 @@
  * tracker publishes them), pelvis and neck; reference pelvis -> neck; limbs neck-head, neck-hands,
  * pelvis-feet (rigs/samba-7.json). A quadruped gets withers, croup, lf/rf/lh/rh_hoof, muzzle,
  * tail; reference croup -> withers; limbs as rigs/horse.json.
+ *
+ * Several frames (mdl_rig_propose_frames): each frame proposed alone, then per marker the medoid
+ * (the member of least summed distance to the others, as in Kaufman & Rousseeuw's k-medoids) of
+ * its vertices over the frames of the majority body, measured in the first frame.
  *
  * Training-time only: allocates (one distance field per tip, about 15 fields of nv doubles). */
 #include "model.h"
