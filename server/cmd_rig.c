@@ -14,7 +14,7 @@
 #include <string.h>
 
 static const char usage_text[] =
-    "usage: meshsteer rig --mesh REST.obj|SEQ [--rest REST.obj] [--frame K]\n"
+    "usage: meshsteer rig --mesh REST.obj|SEQ [--rest REST.obj] [--frame K | --frames SPEC]\n"
     "                     [--body human|quadruped|auto] [--up AXIS] -o RIG.json [--sheet RIG.png]\n"
     "\n"
     "Proposes a rig (markers, reference edge, limbs) from the mesh alone: the geodesic extremities\n"
@@ -27,6 +27,8 @@ static const char usage_text[] =
     "  --mesh PATH     one OBJ, a directory of numbered OBJ frames, or a .pc2 point cache\n"
     "  --rest REST.obj topology for a .pc2 cache\n"
     "  --frame K       the frame to measure (default 0)\n"
+    "  --frames SPEC   propose from each of these frames (START:STOP:STEP, or a list) and take\n"
+    "                  each marker's medoid over them: a rig that does not depend on one pose\n"
     "  --body B        human, quadruped or auto (default: auto, a quadruped when four of the\n"
     "                  extremities are near the ground)\n"
     "  --up AXIS       the mesh's up axis: x, y, z, -x, -y, -z (default y)\n"
@@ -108,13 +110,15 @@ static int draw_sheet(const char *path, const float *V, int nv, const uint32_t *
 
 int cmd_rig(int argc, char **argv)
 {
-    const char *cmd = "rig", *mesh = NULL, *rest = NULL, *outp = NULL, *sheet = NULL;
+    const char *cmd = "rig", *mesh = NULL, *rest = NULL, *outp = NULL, *sheet = NULL,
+               *frames_spec = NULL;
     int frame = 0, body = MDL_BODY_AUTO, upax = MDL_UP_Y;
-    enum { O_MESH = 256, O_REST, O_FRAME, O_BODY, O_UP, O_SHEET };
+    enum { O_MESH = 256, O_REST, O_FRAME, O_FRAMES, O_BODY, O_UP, O_SHEET };
     static const struct option lo[] = {{"mesh", 1, 0, O_MESH},   {"rest", 1, 0, O_REST},
                                        {"frame", 1, 0, O_FRAME}, {"body", 1, 0, O_BODY},
                                        {"up", 1, 0, O_UP},       {"sheet", 1, 0, O_SHEET},
                                        {"output", 1, 0, 'o'},    {"help", 0, 0, 'h'},
+                                       {"frames", 1, 0, O_FRAMES},
                                        {0, 0, 0, 0}};
     int c;
     optind = 1;
@@ -139,6 +143,7 @@ int cmd_rig(int argc, char **argv)
                 return cli_usage_error(cmd, "--up %s: use x, y, z, -x, -y or -z", optarg);
             break;
         case O_SHEET: sheet = optarg; break;
+        case O_FRAMES: frames_spec = optarg; break;
         case 'o': outp = optarg; break;
         case 'h': fputs(usage_text, stdout); return CLI_EXIT_OK;
         default: fputs(usage_text, stderr); return CLI_EXIT_USAGE;
@@ -150,6 +155,8 @@ int cmd_rig(int argc, char **argv)
         return cli_usage_error(cmd, "--mesh and -o are required (see --help)");
     if (frame < 0)
         return cli_usage_error(cmd, "--frame %d is negative", frame);
+    if (frames_spec && frame != 0)
+        return cli_usage_error(cmd, "give --frame or --frames, not both");
     float up[3] = {0, 0, 0};
     int axis = (upax - MDL_UP_X) % 3;
     up[axis] = upax >= MDL_UP_NEG_X ? -1.0f : 1.0f;
@@ -159,6 +166,8 @@ int cmd_rig(int argc, char **argv)
     mdl_meshseq *seq = NULL;
     mdl_mesh *one = NULL;
     mdl_rig *rig = NULL;
+    int *idx = NULL, nidx = 0, nused = 1;
+    float *fr = NULL; /* the --frames, contiguous: nidx x nv x 3 */
     const float *V;
     const uint32_t *F;
     int nv, nf;
@@ -167,8 +176,9 @@ int cmd_rig(int argc, char **argv)
             status = cli_fail(cmd, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s", err);
             goto out;
         }
-        if (frame != 0) {
-            status = cli_usage_error(cmd, "--frame %d: %s is one mesh (frame 0)", frame, mesh);
+        if (frame != 0 || frames_spec) {
+            status = cli_usage_error(cmd, "--frame%s: %s is one mesh (frame 0)",
+                                     frames_spec ? "s" : "", mesh);
             goto out;
         }
         V = one->V, F = one->F, nv = one->nv, nf = one->nf;
@@ -183,18 +193,43 @@ int cmd_rig(int argc, char **argv)
         }
         V = seq->V + (size_t)frame * seq->nv * 3, F = seq->F, nv = seq->nv, nf = seq->nf;
     }
+    if (frames_spec) {
+        if ((rc = mdl_parse_frames(frames_spec, seq->frames, &idx, &nidx, err)) != 0) {
+            status = cli_usage_error(cmd, "--frames %s: %s", frames_spec, err);
+            goto out;
+        }
+        if (!(fr = malloc((size_t)nidx * nv * 3 * sizeof *fr))) {
+            status = cli_fail(cmd, CLI_EXIT_FAIL, "out of memory");
+            goto out;
+        }
+        for (int k = 0; k < nidx; k++)
+            memcpy(fr + (size_t)k * nv * 3, seq->V + (size_t)idx[k] * nv * 3,
+                   (size_t)nv * 3 * sizeof *fr);
+        frame = idx[0];
+        V = fr; /* the first of the frames: the sheet and the medoids are drawn in it */
+    }
     mdl_rig_proposal info;
-    if ((rc = mdl_rig_propose(V, nv, F, nf, up, body, &rig, &info, err)) != 0) {
-        status = cli_fail(cmd, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE, "%s: frame %d: %s",
-                          mesh, frame, err);
+    rc = frames_spec ? mdl_rig_propose_frames(fr, nv, nidx, F, nf, up, body, &rig, &info, &nused, err)
+                     : mdl_rig_propose(V, nv, F, nf, up, body, &rig, &info, err);
+    if (rc != 0) {
+        if (frames_spec)
+            status = cli_fail(cmd, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE,
+                              "%s: frames %s: %s", mesh, frames_spec, err);
+        else
+            status = cli_fail(cmd, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE,
+                              "%s: frame %d: %s", mesh, frame, err);
         goto out;
     }
-    char comment[1024];
+    char comment[1024], fbuf[16], nbuf[48] = "";
+    snprintf(fbuf, sizeof fbuf, "%d", frame);
+    if (frames_spec)
+        snprintf(nbuf, sizeof nbuf, ", %d of %d frames proposed", nused, nidx);
     snprintf(comment, sizeof comment,
-             "Proposed by 'meshsteer rig' from %s, frame %d (%d vertices): a %s, up (%g, %g, %g), "
+             "Proposed by 'meshsteer rig' from %s, %s%s (%d vertices%s): a %s, up (%g, %g, %g), "
              "facing (%.2f, %.2f, %.2f), left (%.2f, %.2f, %.2f); %d geodesic extremities from "
              "vertex %d. Check it on the sheet (--sheet) before training.",
-             mesh, frame, nv, info.body == MDL_BODY_HUMAN ? "human" : "quadruped", up[0], up[1],
+             mesh, frames_spec ? "the medoid over frames " : "frame ",
+             frames_spec ? frames_spec : fbuf, nv, nbuf, info.body == MDL_BODY_HUMAN ? "human" : "quadruped", up[0], up[1],
              up[2], info.forward[0], info.forward[1], info.forward[2], info.left[0], info.left[1],
              info.left[2], info.ntips, info.centre);
     if ((rc = mdl_rig_write(outp, rig, comment, err)) != 0) {
@@ -217,6 +252,8 @@ int cmd_rig(int argc, char **argv)
     status = CLI_EXIT_OK;
 out:
     mdl_rig_destroy(rig);
+    free(idx);
+    free(fr);
     mdl_mesh_destroy(one);
     mdl_meshseq_destroy(seq);
     return status;

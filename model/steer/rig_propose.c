@@ -25,7 +25,9 @@
  *      hand rigs place it); feet = the two tips farthest from the head; hands = the other two.
  *      Quadruped (6 tips): hooves = the four lowest tips along up; front hooves = the pair nearer
  *      the muzzle end; muzzle vs tail: the end whose cross-section (the ring of vertices at
- *      geodesic distance 0.15 L..0.2 L from the tip, L = D_c(tip)) is the wider.
+ *      geodesic distance 0.15 L..0.2 L from the tip, L = D_c(tip)) is the wider. The muzzle
+ *      marker: the middle of the part of that end (within 0.35 R of its tip) farthest from the
+ *      withers (the end's tip may be an ear; the ears stand a head's length nearer the withers).
  *   4. Forward f (unit, perpendicular to up): human: the toes. Per foot, the leg's axis a runs
  *      from the centroid of the ring at 0.25 L..0.3 L from the tip (ankle) to that of the ring at
  *      0.4 L..0.45 L (shin); the tip's offset from that axis points where the foot points.
@@ -41,8 +43,11 @@
  *      head and to the feet differ least (within 0.02 R: half-way between head and feet, on the
  *      belly); neck = the front-most vertex of the hands' mid-line at 0.30..0.36 of the head's
  *      distance to the pelvis from the head (the base of the neck).
- *      Quadruped: withers / croup = the highest vertex (along up) of the slab, 0.03 R thick
- *      across f, through the front / hind legs' roots.
+ *      Quadruped: withers = the middle of the top (within 0.03 R of the highest, along up) of
+ *      the slab, 0.03 R thick across f, through the front legs' roots; croup = the vertex, on the
+ *      shortest path from the tail's tip to the withers (along the rump and the back), of least
+ *      summed geodesic distance to the hind hooves: over the hips, found by geodesic distances
+ *      only, since the slab through the hind legs' roots follows their swing.
  *   7. Checks (a wrong --up, a mesh without the body's tips): fewer tips than the body needs; a
  *      human whose feet are not below the head by at least a third of the head-foot geodesic
  *      distance; a quadruped with fewer than three of its four lowest tips hanging below their
@@ -57,6 +62,10 @@
  * tracker publishes them), pelvis and neck; reference pelvis -> neck; limbs neck-head, neck-hands,
  * pelvis-feet (rigs/samba-7.json). A quadruped gets withers, croup, lf/rf/lh/rh_hoof, muzzle,
  * tail; reference croup -> withers; limbs as rigs/horse.json.
+ *
+ * Several frames (mdl_rig_propose_frames): each frame proposed alone, then per marker the medoid
+ * (the member of least summed distance to the others, as in Kaufman & Rousseeuw's k-medoids) of
+ * its vertices over the frames of the majority body, measured in the first frame.
  *
  * Training-time only: allocates (one distance field per tip, about 15 fields of nv doubles). */
 #include "model.h"
@@ -351,6 +360,70 @@ static int front_most(const prop *p, const uint8_t *sel, const double f[3])
     return best;
 }
 
+/* The middle of the top of field F over the part's vertices with Dreg < rad: the vertex, among
+ * those within `cap` of F's maximum over that set, nearest their centroid. A region's centre, not
+ * its one extreme vertex, which wanders over a flat top (a crown, a back) with the pose. -1 if the
+ * set is empty. */
+static int top_middle(const prop *p, const double *F, const double *Dreg, double rad, double cap)
+{
+    double top = -INFINITY, c[3] = {0, 0, 0}, n = 0, bd = INFINITY;
+    for (int v = 0; v < p->nv; v++)
+        if (p->part[v] && Dreg[v] < rad && F[v] > top)
+            top = F[v];
+    if (!isfinite(top))
+        return -1;
+    for (int v = 0; v < p->nv; v++)
+        if (p->part[v] && Dreg[v] < rad && F[v] >= top - cap) {
+            for (int k = 0; k < 3; k++)
+                c[k] += p->V[3 * (size_t)v + k];
+            n++;
+        }
+    int best = -1;
+    for (int v = 0; v < p->nv; v++)
+        if (p->part[v] && Dreg[v] < rad && F[v] >= top - cap) {
+            const float *x = p->V + 3 * (size_t)v;
+            double d[3] = {x[0] - c[0] / n, x[1] - c[1] / n, x[2] - c[2] / n};
+            if (dot3(d, d) < bd) {
+                bd = dot3(d, d);
+                best = v;
+            }
+        }
+    return best;
+}
+
+/* Along the shortest path from `from` to the source of the distance field Dto (traced back down
+ * Dto: each step to the neighbour u of least Dto[u] + |u - v|, Dijkstra's predecessor), the
+ * vertex of least Da + Db; -1 if the path is broken. */
+static int path_min(const prop *p, const double *Dto, int from, int to, const double *Da,
+                    const double *Db)
+{
+    int v = from, best = -1;
+    double bs = INFINITY;
+    for (int step = 0; step < p->nv; step++) {
+        if (Da[v] + Db[v] < bs) {
+            bs = Da[v] + Db[v];
+            best = v;
+        }
+        if (v == to)
+            return best;
+        int next = -1;
+        double nd = INFINITY;
+        for (int i = p->g.off[v]; i < p->g.off[v + 1]; i++) {
+            int u = p->g.nbr[i];
+            const float *x = p->V + 3 * (size_t)u, *y = p->V + 3 * (size_t)v;
+            double d[3] = {x[0] - y[0], x[1] - y[1], x[2] - y[2]};
+            if (p->part[u] && Dto[u] < Dto[v] && Dto[u] + sqrt(dot3(d, d)) < nd) {
+                nd = Dto[u] + sqrt(dot3(d, d));
+                next = u;
+            }
+        }
+        if (next < 0)
+            return -1;
+        v = next;
+    }
+    return -1;
+}
+
 typedef struct work {
     double *Dc, *near, *Dt[MAX_TIPS], *tmp;
     uint8_t *sel;
@@ -550,7 +623,7 @@ static int propose_quadruped(prop *p, work *w, const int *tips, mdl_rig **out,
             idx[2 * pr + 1] = tips[hoof[a]];
         }
     }
-    /* withers and croup: the highest vertex of the slab through the legs' roots */
+    /* withers and croup: the top of the slab through the legs' roots */
     int top[2] = {-1, -1};
     for (int k = 0; k < 2; k++) {
         double s = dot3(k ? hind : front, fwd), best = -INFINITY;
@@ -565,6 +638,15 @@ static int propose_quadruped(prop *p, work *w, const int *tips, mdl_rig **out,
         if (top[k] < 0)
             return mdl__err(err, -EINVAL, "rig: found no back above the %s legs",
                             k ? "hind" : "front");
+        /* the middle of the slab's top, not its highest vertex: a back is nearly level (horse-
+         * gallop: 3 cm over 36 cm), so its highest vertex wanders along it with the pose */
+        for (int v = 0; v < p->nv; v++) {
+            w->tmp[v] = vdot(p, v, p->up);
+            w->near[v] = fabs(vdot(p, v, fwd) - s); /* scratch: the tips are found */
+        }
+        int m = top_middle(p, w->tmp, w->near, 0.015 * p->R, CAP * p->R);
+        if (m >= 0)
+            top[k] = m;
     }
     double hoofh = 0;
     for (int i = 0; i < 4; i++)
@@ -579,10 +661,32 @@ static int propose_quadruped(prop *p, work *w, const int *tips, mdl_rig **out,
                             "a third of a leg (%.3g < %.3g): the body lies down in this frame, or "
                             "--up is wrong",
                             k ? "croup" : "withers", top[k], vdot(p, top[k], p->up) - hoofh, leg / 3);
+    /* muzzle: the farthest tip of the head from the withers may be an ear (horse-gallop frames
+     * 10 and 30: an ear 36 cm from the muzzle); the muzzle is the middle of the part of the head
+     * (within 0.35 R of its tip) farthest from the withers, which the ears are not: they stand on
+     * the poll, a head's length nearer the withers along the neck's crest */
+    int muzzle = tips[mi];
+    if ((e = geodesic(p, top[0], w->tmp, err)) != 0)
+        return e;
+    {
+        int m = top_middle(p, w->tmp, w->Dt[mi], 0.35 * p->R, CAP * p->R);
+        if (m >= 0)
+            muzzle = m;
+    }
+    /* croup: the slab over the hind legs follows their swing (horse-gallop: its top moved 36 cm
+     * along the back between frames). Geodesic distances barely change with the pose, so: the
+     * vertex, on the shortest path from the tail's tip to the withers (which runs along the top
+     * of the rump and the back), of least summed geodesic distance to the two hind hooves (over
+     * the hips). The path is traced back down the withers' distance field. */
+    {
+        int best = path_min(p, w->tmp, tips[ti], top[0], w->Dt[hoof[2]], w->Dt[hoof[3]]);
+        if (best >= 0 && vdot(p, best, p->up) - hoofh >= leg / 3)
+            top[1] = best;
+    }
     static const char *const names[] = {"withers", "croup", "lf_hoof", "rf_hoof",
                                         "lh_hoof", "rh_hoof", "muzzle",  "tail"};
     static const int limbs[][2] = {{0, 2}, {0, 3}, {1, 4}, {1, 5}, {0, 6}, {1, 7}};
-    int vert[8] = {top[0], top[1], idx[0], idx[1], idx[2], idx[3], tips[mi], tips[ti]};
+    int vert[8] = {top[0], top[1], idx[0], idx[1], idx[2], idx[3], muzzle, tips[ti]};
     if ((e = make_rig(out, 8, names, NULL, vert, 1, 0, 6, limbs, err)) != 0)
         return e;
     for (int q = 0; q < 3; q++) {
@@ -751,5 +855,92 @@ done:
         free(w.Dt[i]);
     free(p.part);
     mdl__graph_fini(&p.g);
+    return e;
+}
+
+/* Several frames: each proposed alone, then per marker the medoid of its vertices (measured in the
+ * first frame), over the frames of the majority body. A marker's vertex in one frame can sit on
+ * either side of a flat region (a crown, a back, a cut neck); the medoid is the vertex the
+ * majority of frames cluster around, so it changes little with the set of frames. */
+int mdl_rig_propose_frames(const float *V, int nv, int nframes, const uint32_t *F, int nf,
+                           const float up[3], int body, mdl_rig **out, mdl_rig_proposal *info,
+                           int *nused, char *err)
+{
+    *out = NULL;
+    if (nused)
+        *nused = 0;
+    if (nframes < 1)
+        return mdl__err(err, -EINVAL, "rig: no frames to propose from");
+    mdl_rig **rigs = calloc((size_t)nframes, sizeof *rigs);
+    mdl_rig_proposal *infos = calloc((size_t)nframes, sizeof *infos);
+    int *cand = malloc((size_t)nframes * sizeof *cand), e = 0, nb[3] = {0, 0, 0};
+    char first_err[MDL_ERR_LEN] = "";
+    if (!rigs || !infos || !cand) {
+        e = mdl__err(err, -ENOMEM, "rig: out of memory");
+        goto done;
+    }
+    for (int k = 0; k < nframes; k++) {
+        char e1[MDL_ERR_LEN] = "";
+        int r = mdl_rig_propose(V + (size_t)k * nv * 3, nv, F, nf, up, body, &rigs[k], &infos[k], e1);
+        if (r == -ENOMEM) {
+            e = mdl__err(err, r, "%s", e1);
+            goto done;
+        }
+        if (r) {
+            if (!first_err[0])
+                snprintf(first_err, sizeof first_err, "frame %d: %s", k, e1);
+            rigs[k] = NULL;
+            continue;
+        }
+        nb[infos[k].body]++;
+    }
+    int chosen = nb[MDL_BODY_QUADRUPED] > nb[MDL_BODY_HUMAN] ? MDL_BODY_QUADRUPED : MDL_BODY_HUMAN;
+    int ref = -1, n = 0;
+    for (int k = 0; k < nframes; k++)
+        if (rigs[k] && infos[k].body == chosen) {
+            if (ref < 0)
+                ref = k;
+            n++;
+        }
+    if (ref < 0) {
+        e = mdl__err(err, -EINVAL, "rig: every frame was refused (%s)", first_err);
+        goto done;
+    }
+    mdl_rig *r = rigs[ref];
+    for (int i = 0; i < r->nmarkers; i++) {
+        int nc = 0;
+        for (int k = 0; k < nframes; k++)
+            if (rigs[k] && infos[k].body == chosen)
+                cand[nc++] = rigs[k]->markers[i].vertex; /* same body: same names, same order */
+        double best = INFINITY;
+        int bv = r->markers[i].vertex;
+        for (int a = 0; a < nc; a++) {
+            const float *x = V + 3 * (size_t)cand[a];
+            double s = 0;
+            for (int b = 0; b < nc; b++) {
+                const float *y = V + 3 * (size_t)cand[b];
+                double d[3] = {x[0] - y[0], x[1] - y[1], x[2] - y[2]};
+                s += sqrt(dot3(d, d));
+            }
+            if (s < best) {
+                best = s;
+                bv = cand[a];
+            }
+        }
+        r->markers[i].vertex = bv;
+    }
+    *out = r;
+    rigs[ref] = NULL;
+    if (info)
+        *info = infos[ref];
+    if (nused)
+        *nused = n;
+done:
+    if (rigs)
+        for (int k = 0; k < nframes; k++)
+            mdl_rig_destroy(rigs[k]);
+    free(rigs);
+    free(infos);
+    free(cand);
     return e;
 }

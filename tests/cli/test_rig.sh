@@ -74,6 +74,13 @@ for k in 60 120; do
         near "$dir/sp$k.csv" $m "$dir/sp.csv" $m 0.06 "samba frame $k"
     done
 done
+# --frames: the medoid over several frames is the same rig (within a few cm in frame 0)
+expect_status 2 "$ms" rig "${S[@]}" --frame 3 --frames 0:175:35 -o "$dir/x.json"
+grep -q "not both" "$dir/err" || fail "--frame with --frames is not refused"
+expect_status 0 "$ms" rig "${S[@]}" --frames 0:175:35 -o "$dir/sampled.json"
+grep -q "medoid over frames 0:175:35" "$dir/sampled.json" || fail "--frames: the rig's comment does not say how it was made"
+pos "${S[@]}" "$dir/sampled.json" 0 "$dir/spm.csv"
+for m in head lhand rhand lfoot rfoot; do near "$dir/spm.csv" $m "$dir/sh.csv" $m 0.06 "samba medoid"; done
 # a wrong up axis is refused, naming --up
 expect_status 2 "$ms" rig "${S[@]}" --up z -o "$dir/bad.json"
 grep -q -- "--up is wrong" "$dir/err" || fail "samba with --up z: no word of --up"
