@@ -7,7 +7,9 @@
  * OUT_DIR/corrupt.msm (the model file cut in half, for the SIGHUP test), OUT_DIR/skin.msm (a skin
  * of the same example: a clock-driven kind), OUT_DIR/two-kinds.msm (the steering model with
  * that skin beside it, the daemon's idle animation) and OUT_DIR/two-kinds-walk.msm (the same, its
- * skin walking the example's transition graph: Zheng 2013's variations as the idle source). */
+ * skin walking the example's transition graph: Zheng 2013's variations as the idle source), and
+ * OUT_DIR/kblend.msm (the steering model of the same frames synthesising by the kernel blend of
+ * its training meshes, model/steer/kblend.h: no params layout, the meshes in the file). */
 #include "model.h"
 
 #include <stdio.h>
@@ -51,6 +53,17 @@ int main(int argc, char **argv)
         fprintf(stderr, "make_model: %s\n", err);
         return 1;
     }
+    /* the kernel blend of the same frames (virtual markers, as above) */
+    mdl_model *kb = NULL;
+    o.name = "example-kblend";
+    o.kblend = 0.7;
+    snprintf(path, sizeof path, "%s/kblend.msm", argv[1]);
+    if (mdl_steer_train(seq, idx, frames, rig, NULL, &o, &kb, err) || mdl_model_save(kb, path, err)) {
+        fprintf(stderr, "make_model: kernel blend: %s\n", err);
+        return 1;
+    }
+    mdl_model_destroy(kb);
+    snprintf(path, sizeof path, "%s/example.msm", argv[1]);
     /* the corrupt copy: the first half of the file */
     FILE *f = fopen(path, "rb");
     fseek(f, 0, SEEK_END);
