@@ -688,10 +688,55 @@ static void scenario_kblend(void)
     ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_total"), 2);
     ASSERT_INT_EQ(A->protocol_errors + B->protocol_errors + Q->protocol_errors, 0);
     ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+
+    /* the kernel blend with the example's skin as its idle kind: the only params layout is the
+     * skin's (layout 0), so a params client gets the blend's tracked frames as int16 and the
+     * idle frames as params frames, each matching the float32 frame of the same number */
+    snprintf(live, sizeof live, "%s/kblend-skin.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?start=170", H.dir); /* 70 frames, then idle */
+    harness_start(&H, meshsteerd, args);
+    wsc *F = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *P = wsc_connect(ctx, H.port, NULL, 1);
+    wsc_send(P, "{\"type\":\"encoding\",\"encoding\":\"params\"}");
+    want wp = {P, 30, 0, 0, 0, 2}; /* 30 idle params frames */
+    ASSERT(wsc_run(ctx, 20000, enough, &wp));
+    run_until(ctx, F, F->total_frames + 5, 0, 5000);
+    ASSERT_INT_EQ(F->protocol_errors + P->protocol_errors, 0);
+    h = cJSON_Parse(P->hello);
+    ASSERT(h);
+    hm = cJSON_GetObjectItem(h, "model");
+    ASSERT(cJSON_IsTrue(cJSON_GetObjectItem(hm, "idle")));
+    ASSERT_INT_EQ(cJSON_GetArraySize(cJSON_GetObjectItem(hm, "params")), 1);
+    expect_str(cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(hm, "params"), 0), "kind")->valuestring,
+               "skin");
+    cJSON_Delete(h);
+    ASSERT_INT_EQ(P->params_msgs, 1);
+    ASSERT_INT_EQ(P->params->nlayouts, 1);
+    ASSERT_INT_EQ(P->params->layout[0].kind, 3);
+    int tracked16 = 0, idle2 = 0, wrong = 0;
+    for (int i = 0; i < P->nframes; i++) {
+        const wsc_frame *f = &P->frames[i];
+        tracked16 += !(f->flags & 8) && f->encoding == 1;
+        idle2 += (f->flags & 8) && f->encoding == 2;
+        wrong += !(f->flags & 8) && f->encoding == 2; /* a blend frame claiming a params form */
+    }
+    double w1 = 0, w2 = 0;
+    int c1 = compare_encodings_as(F, P, 1, &w1), c2 = compare_encodings_as(F, P, 2, &w2);
+    printf("kblend + skin: a params client got %d tracked int16 frames, %d idle params frames; "
+           "%d and %d compared with float32 (worst %.3f, %.3f of the int16 bound)\n",
+           tracked16, idle2, c1, c2, w1, w2);
+    ASSERT_INT_GE(tracked16, 20);
+    ASSERT_INT_GE(idle2, 30);
+    ASSERT_INT_EQ(wrong, 0);
+    ASSERT_INT_GE(c1, 20);
+    ASSERT_INT_GE(c2, 20);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
     lws_context_destroy(ctx);
     wsc_free(A);
     wsc_free(B);
     wsc_free(Q);
+    wsc_free(F);
+    wsc_free(P);
 }
 
 /* ------------------------------------------------------------------ fade */
