@@ -11,7 +11,8 @@
  *   limits   max clients and token checks
  *   kblend   a kernel-blend steering model (model/steer/kblend.h) swapped in by SIGHUP and back:
  *            float32 frames equal to the library's synthesis from their markers, int16 within
- *            the bound, a params client served int16 (no params form), /healthz, /metrics
+ *            the bound, a params client served int16 (no params form), /healthz, /metrics; the
+ *            same model with an idle skin: params frames for the idle frames only
  *   origin   --origin same and --origin LIST: matching Origins accepted, others and none refused
  *   idle     --idle-timeout 2: a client that accepts no frame is closed, a reading one is not
  *   config   -c FILE round trip through the binary: the file's settings take effect, flags
