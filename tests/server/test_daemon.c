@@ -83,6 +83,12 @@ static double latency_bound_us(void)
     return sanitized ? 5e6 : 5e5;
 }
 
+/* a wait of ms, four times as long sanitized (as run_until's) */
+static int wait_ms(int ms)
+{
+    return sanitized ? 4 * ms : ms;
+}
+
 typedef struct want {
     wsc *c;
     uint64_t frames;
@@ -609,14 +615,14 @@ static void scenario_kblend(void)
     send_and_expect(ctx, B, "{\"type\":\"encoding\",\"encoding\":\"int16\"}", "ack", NULL);
     send_and_expect(ctx, Q, "{\"type\":\"encoding\",\"encoding\":\"params\"}", "ack", NULL);
     want wq = {Q, 10, 0, 0, 0, 2};
-    ASSERT(wsc_run(ctx, 15000, enough, &wq)); /* the part model: params frames */
+    ASSERT(wsc_run(ctx, wait_ms(15000), enough, &wq)); /* the part model: params frames */
     ASSERT_INT_EQ(Q->params->nlayouts, 1);
 
     /* SIGHUP: the part model's file replaced by the kernel blend's */
     harness_copy(kb, live);
     ASSERT_INT_EQ(kill(H.pid, SIGHUP), 0);
     want wh = {A, 0, 0, 2, 0, -1};
-    ASSERT(wsc_run(ctx, 20000, enough, &wh));
+    ASSERT(wsc_run(ctx, wait_ms(20000), enough, &wh));
     uint32_t gen = (uint32_t)hello_generation(A);
     cJSON *h = cJSON_Parse(A->hello);
     ASSERT(h);
@@ -628,9 +634,9 @@ static void scenario_kblend(void)
     uint64_t t0 = A->total_frames;
     run_until(ctx, A, t0 + 90, 0, 15000); /* 3 s of the trot */
     want wb = {B, 0, 0, 2, 0, -1};
-    ASSERT(wsc_run(ctx, 5000, enough, &wb));
+    ASSERT(wsc_run(ctx, wait_ms(5000), enough, &wb));
     want wq2 = {Q, 0, 0, 2, 0, -1};
-    ASSERT(wsc_run(ctx, 5000, enough, &wq2));
+    ASSERT(wsc_run(ctx, wait_ms(5000), enough, &wq2));
     ASSERT_INT_EQ(A->protocol_errors + B->protocol_errors + Q->protocol_errors, 0);
     double worst = 0, moved = 0;
     int n = kblend_against_library(A, gen, kb, &worst, &moved);
@@ -675,7 +681,7 @@ static void scenario_kblend(void)
     harness_copy(part, live);
     ASSERT_INT_EQ(kill(H.pid, SIGHUP), 0);
     want wq3 = {Q, 0, 0, 3, 0, -1};
-    ASSERT(wsc_run(ctx, 20000, enough, &wq3));
+    ASSERT(wsc_run(ctx, wait_ms(20000), enough, &wq3));
     uint32_t gen3 = (uint32_t)hello_generation(Q);
     run_until(ctx, Q, Q->total_frames + 20, 0, 15000);
     int back = 0;
@@ -700,7 +706,7 @@ static void scenario_kblend(void)
     wsc *P = wsc_connect(ctx, H.port, NULL, 1);
     wsc_send(P, "{\"type\":\"encoding\",\"encoding\":\"params\"}");
     want wp = {P, 30, 0, 0, 0, 2}; /* 30 idle params frames */
-    ASSERT(wsc_run(ctx, 20000, enough, &wp));
+    ASSERT(wsc_run(ctx, wait_ms(20000), enough, &wp));
     run_until(ctx, F, F->total_frames + 5, 0, 5000);
     ASSERT_INT_EQ(F->protocol_errors + P->protocol_errors, 0);
     h = cJSON_Parse(P->hello);
