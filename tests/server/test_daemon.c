@@ -638,6 +638,9 @@ static void scenario_kblend(void)
     want wq2 = {Q, 0, 0, 2, 0, -1};
     ASSERT(wsc_run(ctx, wait_ms(5000), enough, &wq2));
     ASSERT_INT_EQ(A->protocol_errors + B->protocol_errors + Q->protocol_errors, 0);
+    ASSERT_INT_EQ(A->topos, 2); /* a topology after each hello, the same mesh */
+    ASSERT_INT_EQ(Q->topos, 2);
+    ASSERT_INT_EQ(A->nv, 4794);
     double worst = 0, moved = 0;
     int n = kblend_against_library(A, gen, kb, &worst, &moved);
     double wb16 = 0;
