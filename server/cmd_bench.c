@@ -59,7 +59,7 @@ int cmd_bench(int argc, char **argv)
     const char *cmd = "bench", *mesh = NULL, *rest = NULL, *rigp = NULL, *tspec = "0:24:2",
                *espec = "1:24:2";
     int runs = 5, nsynth = 2000;
-    double kblend = 0;
+    double kblend = -1; /* -1: not given, the library's default */
     enum { O_MESH = 256, O_REST, O_RIG, O_FRAMES, O_EFRAMES, O_RUNS, O_NSYNTH, O_KBLEND };
     static const struct option lo[] = {
         {"mesh", 1, 0, O_MESH},       {"rest", 1, 0, O_REST},           {"rig", 1, 0, O_RIG},
@@ -88,7 +88,7 @@ int cmd_bench(int argc, char **argv)
         return cli_usage_error(cmd, "--mesh and --rig are required (see --help)");
     if (runs < 1 || runs > 1000 || nsynth < 1 || nsynth > 10000000)
         return cli_usage_error(cmd, "--train-runs must be 1..1000 and --synth-frames 1..10^7");
-    if (!(kblend >= 0 && kblend < 1000))
+    if (kblend != -1 && !(kblend >= 0 && kblend < 1000))
         return cli_usage_error(cmd, "--kernel-blend must be within 0..1000");
 
     char err[MDL_ERR_LEN] = "";
@@ -121,7 +121,8 @@ int cmd_bench(int argc, char **argv)
     }
     mdl_train_opts o;
     mdl_train_opts_default(&o);
-    o.kblend = kblend;
+    if (kblend != -1)
+        o.kblend = kblend;
     for (int r = 0; r < runs; r++) {
         mdl_model_destroy(model);
         model = NULL;

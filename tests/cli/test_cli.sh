@@ -61,7 +61,7 @@ expect_status 0 "$ms" synth --model "$dir/kb.msm" --markers "$src/recordings/exa
 expect_status 0 "$ms" bench --mesh "$dir/ex/mesh" --rig "$dir/ex/rig.json" --frames 0:40:2 \
     --eval-frames 1:40:2 --train-runs 1 --synth-frames 50 --kernel-blend 0.7
 grep -q "kernel blend of the 20 training meshes" "$dir/out" || fail "bench: no kernel blend"
-expect_status 2 "$ms" bench --mesh "$dir/ex/mesh" --rig "$dir/ex/rig.json" --kernel-blend -1
+expect_status 2 "$ms" bench --mesh "$dir/ex/mesh" --rig "$dir/ex/rig.json" --kernel-blend -2
 grep -q -- "--kernel-blend" "$dir/err" || fail "bench: a bad --kernel-blend not named"
 
 # a model refuses a corrupt file and a mesh of another topology
