@@ -703,7 +703,7 @@ static void scenario_kblend(void)
      * skin's (layout 0), so a params client gets the blend's tracked frames as int16 and the
      * idle frames as params frames, each matching the float32 frame of the same number */
     snprintf(live, sizeof live, "%s/kblend-skin.msm", H.dir);
-    snprintf(source, sizeof source, "replay:%s/trot.csv?start=170", H.dir); /* 70 frames, then idle */
+    snprintf(source, sizeof source, "replay:%s/trot.csv?start=140", H.dir); /* 100 frames, then idle */
     harness_start(&H, meshsteerd, args);
     wsc *F = wsc_connect(ctx, H.port, NULL, 1);
     wsc *P = wsc_connect(ctx, H.port, NULL, 1);
