@@ -41,6 +41,29 @@ expect_status 0 "$ms" render --mesh "$dir/ex.pc2" --rest "$dir/ex/mesh/0000.obj"
     -o "$dir/sheet.png"
 head -c 8 "$dir/sheet.png" | od -An -tx1 | grep -q "89 50 4e 47" || fail "render did not write a PNG"
 
+# the same example trained with the kernel blend (docs/MODEL.md): inspect says the synthesis is
+# the blend, eval beats the baseline on held-out frames, synth stays finite, bench runs it
+expect_status 0 "$ms" train --mesh "$dir/ex/mesh" --rig "$dir/ex/rig.json" --frames 0:40:2 \
+    --kernel-blend 0.7 -o "$dir/kb.msm"
+expect_status 0 "$ms" inspect "$dir/kb.msm"
+grep -q "synthesis is the kernel blend of the 20 training meshes, bandwidth 0.7" "$dir/out" ||
+    { cat "$dir/out"; fail "inspect does not say the synthesis is the kernel blend"; }
+expect_status 0 "$ms" eval --model "$dir/kb.msm" --mesh "$dir/ex/mesh" --frames 1:40:2 --json
+cp "$dir/out" "$dir/kbeval.json"
+mean=$(json_num "$dir/kbeval.json" mean_err) base=$(json_num "$dir/kbeval.json" baseline_nn_mean_err)
+awk -v a="$mean" -v b="$base" 'BEGIN { exit !(a > 0 && a < b) }' ||
+    fail "example, kernel blend: error $mean is not below the baseline $base"
+[ "$(json_num "$dir/kbeval.json" nan_count)" = "0" ] || fail "kernel blend eval: NaN"
+expect_status 0 "$ms" synth --model "$dir/kb.msm" --markers "$src/recordings/example-trot.c3d" \
+    -o "$dir/kb.pc2" --json
+[ "$(json_num "$dir/out" nonfinite)" = "0" ] || fail "kernel blend synth produced non-finite values"
+[ "$(json_num "$dir/out" frames)" = "240" ] || fail "kernel blend synth: not 240 frames"
+expect_status 0 "$ms" bench --mesh "$dir/ex/mesh" --rig "$dir/ex/rig.json" --frames 0:40:2 \
+    --eval-frames 1:40:2 --train-runs 1 --synth-frames 50 --kernel-blend 0.7
+grep -q "kernel blend of the 20 training meshes" "$dir/out" || fail "bench: no kernel blend"
+expect_status 2 "$ms" bench --mesh "$dir/ex/mesh" --rig "$dir/ex/rig.json" --kernel-blend -2
+grep -q -- "--kernel-blend" "$dir/err" || fail "bench: a bad --kernel-blend not named"
+
 # a model refuses a corrupt file and a mesh of another topology
 head -c 1000 "$dir/ex.msm" >"$dir/cut.msm"
 expect_status 2 "$ms" inspect "$dir/cut.msm"

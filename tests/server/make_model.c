@@ -7,7 +7,11 @@
  * OUT_DIR/corrupt.msm (the model file cut in half, for the SIGHUP test), OUT_DIR/skin.msm (a skin
  * of the same example: a clock-driven kind), OUT_DIR/two-kinds.msm (the steering model with
  * that skin beside it, the daemon's idle animation) and OUT_DIR/two-kinds-walk.msm (the same, its
- * skin walking the example's transition graph: Zheng 2013's variations as the idle source). */
+ * skin walking the example's transition graph: Zheng 2013's variations as the idle source), and
+ * OUT_DIR/kblend.msm (the steering model of the same frames synthesising by the kernel blend of
+ * its training meshes, model/steer/kblend.h: no params layout, the meshes in the file) and
+ * OUT_DIR/kblend-skin.msm (that model with the skin beside it: an idle kind that has a params
+ * layout under a primary kind that has none). */
 #include "model.h"
 
 #include <stdio.h>
@@ -51,6 +55,16 @@ int main(int argc, char **argv)
         fprintf(stderr, "make_model: %s\n", err);
         return 1;
     }
+    /* the kernel blend of the same frames (virtual markers, as above) */
+    mdl_model *kb = NULL;
+    o.name = "example-kblend";
+    o.kblend = 0.7;
+    snprintf(path, sizeof path, "%s/kblend.msm", argv[1]);
+    if (mdl_steer_train(seq, idx, frames, rig, NULL, &o, &kb, err) || mdl_model_save(kb, path, err)) {
+        fprintf(stderr, "make_model: kernel blend: %s\n", err);
+        return 1;
+    }
+    snprintf(path, sizeof path, "%s/example.msm", argv[1]);
     /* the corrupt copy: the first half of the file */
     FILE *f = fopen(path, "rb");
     fseek(f, 0, SEEK_END);
@@ -71,9 +85,10 @@ int main(int argc, char **argv)
     so.bones = 8;
     so.iterations = 20;
     so.name = "example-skin";
-    mdl_model *skin = NULL, *skin2 = NULL;
+    mdl_model *skin = NULL, *skin2 = NULL, *skin3 = NULL;
     if (mdl_skin_fit(seq, idx, frames, &so, &skin, err) ||
-        mdl_skin_fit(seq, idx, frames, &so, &skin2, err)) {
+        mdl_skin_fit(seq, idx, frames, &so, &skin2, err) ||
+        mdl_skin_fit(seq, idx, frames, &so, &skin3, err)) {
         fprintf(stderr, "make_model: skin: %s\n", err);
         return 1;
     }
@@ -87,6 +102,12 @@ int main(int argc, char **argv)
         fprintf(stderr, "make_model: %s\n", err);
         return 1;
     }
+    snprintf(path, sizeof path, "%s/kblend-skin.msm", argv[1]);
+    if (mdl_model_merge(kb, &skin3, err) || mdl_model_save(kb, path, err)) {
+        fprintf(stderr, "make_model: %s\n", err);
+        return 1;
+    }
+    mdl_model_destroy(kb);
     snprintf(path, sizeof path, "%s/two-kinds-walk.msm", argv[1]);
     if (mdl_variations_attach(m, NULL, 7, err) || mdl_model_save(m, path, err)) {
         fprintf(stderr, "make_model: variations: %s\n", err);

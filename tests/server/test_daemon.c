@@ -9,6 +9,10 @@
  *   slow     a client that never reads while another receives at full rate; bounded memory
  *   record   --record writes a C3D that reads back as the replayed markers
  *   limits   max clients and token checks
+ *   kblend   a kernel-blend steering model (model/steer/kblend.h) swapped in by SIGHUP and back:
+ *            float32 frames equal to the library's synthesis from their markers, int16 within
+ *            the bound, a params client served int16 (no params form), /healthz, /metrics; the
+ *            same model with an idle skin: params frames for the idle frames only
  *   origin   --origin same and --origin LIST: matching Origins accepted, others and none refused
  *   idle     --idle-timeout 2: a client that accepts no frame is closed, a reading one is not
  *   config   -c FILE round trip through the binary: the file's settings take effect, flags
@@ -77,6 +81,12 @@ static int sanitized;
 static double latency_bound_us(void)
 {
     return sanitized ? 5e6 : 5e5;
+}
+
+/* a wait of ms, four times as long sanitized (as run_until's) */
+static int wait_ms(int ms)
+{
+    return sanitized ? 4 * ms : ms;
 }
 
 typedef struct want {
@@ -519,6 +529,224 @@ static void scenario_kinds(void)
     wsc_free(A);
     wsc_free(W);
     wsc_free(B);
+}
+
+/* ------------------------------------------------------------------ kblend */
+
+/* Generation of c's last hello. */
+static int hello_generation(const wsc *c)
+{
+    cJSON *h = cJSON_Parse(c->hello);
+    ASSERT(h);
+    int g = cJSON_GetObjectItem(h, "generation")->valueint;
+    cJSON_Delete(h);
+    return g;
+}
+
+/* The float32 frames of A of generation gen against the library: each is what the model of
+ * model_path synthesises from the markers the frame carries (the kernel blend keeps no state but
+ * the last position of a missing marker, and the replay misses none). Every vertex finite; returns
+ * the frames compared, *worst the largest difference (m), *moved the largest step of a vertex
+ * between the first and the last of them (m). */
+static int kblend_against_library(const wsc *A, uint32_t gen, const char *model_path, double *worst,
+                                  double *moved)
+{
+    char err[MDL_ERR_LEN];
+    mdl_model *m = NULL;
+    mdl_synth *s = NULL;
+    ASSERT_OK(mdl_model_load(model_path, &m, err), err);
+    ASSERT_OK(mdl_synth_create(m, 0, &s, err), err);
+    float *V = calloc(3 * (size_t)A->nv, sizeof *V);
+    ASSERT(V);
+    int n = 0, first = -1, last = -1;
+    *worst = *moved = 0;
+    for (int i = 0; i < A->nframes; i++) {
+        const wsc_frame *f = &A->frames[i];
+        if (f->generation != gen || f->encoding != 0 || !f->V || !f->M)
+            continue;
+        ASSERT_INT_EQ(f->flags & 1, 0); /* tracked, the reference never lost */
+        ASSERT_INT_EQ(f->flags & 8, 0); /* not idle */
+        for (int k = 0; k < 3 * A->nv; k++)
+            ASSERT(isfinite(f->V[k]));
+        ASSERT_OK(mdl_synth_markers(s, f->M, NULL, V, NULL), "synth");
+        for (int k = 0; k < 3 * A->nv; k++) {
+            double d = fabs((double)V[k] - (double)f->V[k]);
+            *worst = d > *worst ? d : *worst;
+            ASSERT_NEAR_I(f->V[k], V[k], 1e-5, k);
+        }
+        first = first < 0 ? i : first;
+        last = i;
+        n++;
+    }
+    for (int k = 0; n && k < 3 * A->nv; k++) {
+        double d = fabs((double)A->frames[first].V[k] - (double)A->frames[last].V[k]);
+        *moved = d > *moved ? d : *moved;
+    }
+    free(V);
+    mdl_synth_destroy(s);
+    mdl_model_destroy(m);
+    return n;
+}
+
+/* A steering model synthesising by the kernel blend of its training meshes (model/steer/kblend.h:
+ * no params layout, the meshes in its file), served as a SIGHUP reload of a part model and back:
+ * float32 frames are, vertex for vertex, what the library makes of the markers they carry (finite,
+ * moving with the trot); int16 frames agree with them within the int16 bound; the hello lists no
+ * params form, and a params client gets the kernel blend's frames as int16 (docs/PROTOCOL.md 1, as
+ * for the harmonic kind), then params frames again after the reload back; /healthz and /metrics
+ * as for any model. */
+static void scenario_kblend(void)
+{
+    char live[1200], part[1200], kb[1200], source[1200], *body = NULL;
+    snprintf(live, sizeof live, "%s/live.msm", H.dir);
+    snprintf(part, sizeof part, "%s/example.msm", H.dir);
+    snprintf(kb, sizeof kb, "%s/kblend.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?loop=1", H.dir);
+    harness_copy(part, live);
+    const char *args[] = {"--model", live, "--source", source, "--listen", "127.0.0.1:0", "-v", NULL};
+    harness_start(&H, meshsteerd, args);
+    struct lws_context *ctx = wsc_context();
+    ASSERT(ctx);
+    wsc *A = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *B = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *Q = wsc_connect(ctx, H.port, NULL, 1);
+    run_until(ctx, A, 5, 0, 15000);
+    send_and_expect(ctx, A, "{\"type\":\"encoding\",\"encoding\":\"float32\"}", "ack", NULL);
+    send_and_expect(ctx, B, "{\"type\":\"encoding\",\"encoding\":\"int16\"}", "ack", NULL);
+    send_and_expect(ctx, Q, "{\"type\":\"encoding\",\"encoding\":\"params\"}", "ack", NULL);
+    want wq = {Q, 10, 0, 0, 0, 2};
+    ASSERT(wsc_run(ctx, wait_ms(15000), enough, &wq)); /* the part model: params frames */
+    ASSERT_INT_EQ(Q->params->nlayouts, 1);
+
+    /* SIGHUP: the part model's file replaced by the kernel blend's */
+    harness_copy(kb, live);
+    ASSERT_INT_EQ(kill(H.pid, SIGHUP), 0);
+    want wh = {A, 0, 0, 2, 0, -1};
+    ASSERT(wsc_run(ctx, wait_ms(20000), enough, &wh));
+    uint32_t gen = (uint32_t)hello_generation(A);
+    cJSON *h = cJSON_Parse(A->hello);
+    ASSERT(h);
+    const cJSON *hm = cJSON_GetObjectItem(h, "model");
+    expect_str(cJSON_GetObjectItem(hm, "name")->valuestring, "example-kblend");
+    expect_str(cJSON_GetObjectItem(hm, "kind")->valuestring, "steer");
+    ASSERT_INT_EQ(cJSON_GetArraySize(cJSON_GetObjectItem(hm, "params")), 0);
+    cJSON_Delete(h);
+    uint64_t t0 = A->total_frames;
+    run_until(ctx, A, t0 + 90, 0, 15000); /* 3 s of the trot */
+    want wb = {B, 0, 0, 2, 0, -1};
+    ASSERT(wsc_run(ctx, wait_ms(5000), enough, &wb));
+    want wq2 = {Q, 0, 0, 2, 0, -1};
+    ASSERT(wsc_run(ctx, wait_ms(5000), enough, &wq2));
+    ASSERT_INT_EQ(A->protocol_errors + B->protocol_errors + Q->protocol_errors, 0);
+    ASSERT_INT_EQ(A->topos, 2); /* a topology after each hello, the same mesh */
+    ASSERT_INT_EQ(Q->topos, 2);
+    ASSERT_INT_EQ(A->nv, 4794);
+    double worst = 0, moved = 0;
+    int n = kblend_against_library(A, gen, kb, &worst, &moved);
+    double wb16 = 0;
+    int n16 = compare_encodings_as(A, B, 1, &wb16);
+    int q16 = 0, q2 = 0, qcmp = 0;
+    double wq16 = 0;
+    for (int i = 0; i < Q->nframes; i++)
+        if (Q->frames[i].generation == gen) {
+            q16 += Q->frames[i].encoding == 1;
+            q2 += Q->frames[i].encoding == 2;
+        }
+    qcmp = compare_encodings_as(A, Q, 1, &wq16);
+    printf("kblend: %d float32 frames as the library makes them (worst %.2g m), vertices moved up "
+           "to %.3f m; int16 %d frames within %.3f of the bound; the params client: %d int16 "
+           "frames, %d params frames, %d params models\n",
+           n, worst, moved, n16, wb16, q16, q2, Q->params_msgs);
+    ASSERT_INT_GE(n, 60);
+    ASSERT(moved > 0.01); /* the blend follows the trot, not a still pose */
+    ASSERT_INT_GE(n16, 30);
+    ASSERT_INT_GE(q16, 30);
+    ASSERT_INT_EQ(q2, 0);
+    ASSERT_INT_GE(qcmp, 30);
+    ASSERT_INT_EQ(Q->params_msgs, 2);
+    ASSERT_INT_EQ(Q->params->nlayouts, 0);
+    /* asking for params again under the kernel blend: acknowledged, frames keep coming as int16 */
+    send_and_expect(ctx, Q, "{\"type\":\"encoding\",\"encoding\":\"params\"}", "ack", NULL);
+    run_until(ctx, Q, Q->total_frames + 10, 0, 5000);
+    ASSERT_INT_EQ(Q->frames[Q->nframes - 1].encoding, 1);
+    ASSERT_INT_EQ(harness_get(&H, "/healthz", &body), 200);
+    cJSON *hz = cJSON_Parse(body);
+    ASSERT(hz);
+    expect_str(cJSON_GetObjectItem(hz, "status")->valuestring, "ok");
+    cJSON_Delete(hz);
+    free(body);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_total"), 1);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_failed_total"), 0);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_drops_total{reason=\"synth_failed\"}"), 0);
+    ASSERT(harness_metric(&H, "meshsteer_frames_out_total") > 200);
+
+    /* and back: the part model, params frames again */
+    harness_copy(part, live);
+    ASSERT_INT_EQ(kill(H.pid, SIGHUP), 0);
+    want wq3 = {Q, 0, 0, 3, 0, -1};
+    ASSERT(wsc_run(ctx, wait_ms(20000), enough, &wq3));
+    uint32_t gen3 = (uint32_t)hello_generation(Q);
+    run_until(ctx, Q, Q->total_frames + 20, 0, 15000);
+    int back = 0;
+    for (int i = 0; i < Q->nframes; i++)
+        back += Q->frames[i].generation == gen3 && Q->frames[i].encoding == 2;
+    printf("kblend: back to the part model: %d params frames, %d params models\n", back,
+           Q->params_msgs);
+    ASSERT_INT_GE(back, 15);
+    ASSERT_INT_EQ(Q->params_msgs, 3);
+    ASSERT_INT_EQ(Q->params->nlayouts, 1);
+    ASSERT_INT_EQ(harness_metric(&H, "meshsteer_reloads_total"), 2);
+    ASSERT_INT_EQ(A->protocol_errors + B->protocol_errors + Q->protocol_errors, 0);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+
+    /* the kernel blend with the example's skin as its idle kind: the only params layout is the
+     * skin's (layout 0), so a params client gets the blend's tracked frames as int16 and the
+     * idle frames as params frames, each matching the float32 frame of the same number */
+    snprintf(live, sizeof live, "%s/kblend-skin.msm", H.dir);
+    snprintf(source, sizeof source, "replay:%s/trot.csv?start=140", H.dir); /* 100 frames, then idle */
+    harness_start(&H, meshsteerd, args);
+    wsc *F = wsc_connect(ctx, H.port, NULL, 1);
+    wsc *P = wsc_connect(ctx, H.port, NULL, 1);
+    wsc_send(P, "{\"type\":\"encoding\",\"encoding\":\"params\"}");
+    want wp = {P, 30, 0, 0, 0, 2}; /* 30 idle params frames */
+    ASSERT(wsc_run(ctx, wait_ms(20000), enough, &wp));
+    run_until(ctx, F, F->total_frames + 5, 0, 5000);
+    ASSERT_INT_EQ(F->protocol_errors + P->protocol_errors, 0);
+    h = cJSON_Parse(P->hello);
+    ASSERT(h);
+    hm = cJSON_GetObjectItem(h, "model");
+    ASSERT(cJSON_IsTrue(cJSON_GetObjectItem(hm, "idle")));
+    ASSERT_INT_EQ(cJSON_GetArraySize(cJSON_GetObjectItem(hm, "params")), 1);
+    expect_str(cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(hm, "params"), 0), "kind")->valuestring,
+               "skin");
+    cJSON_Delete(h);
+    ASSERT_INT_EQ(P->params_msgs, 1);
+    ASSERT_INT_EQ(P->params->nlayouts, 1);
+    ASSERT_INT_EQ(P->params->layout[0].kind, 3);
+    int tracked16 = 0, idle2 = 0, wrong = 0;
+    for (int i = 0; i < P->nframes; i++) {
+        const wsc_frame *f = &P->frames[i];
+        tracked16 += !(f->flags & 8) && f->encoding == 1;
+        idle2 += (f->flags & 8) && f->encoding == 2;
+        wrong += !(f->flags & 8) && f->encoding == 2; /* a blend frame claiming a params form */
+    }
+    double w1 = 0, w2 = 0;
+    int c1 = compare_encodings_as(F, P, 1, &w1), c2 = compare_encodings_as(F, P, 2, &w2);
+    printf("kblend + skin: a params client got %d tracked int16 frames, %d idle params frames; "
+           "%d and %d compared with float32 (worst %.3f, %.3f of the int16 bound)\n",
+           tracked16, idle2, c1, c2, w1, w2);
+    ASSERT_INT_GE(tracked16, 20);
+    ASSERT_INT_GE(idle2, 30);
+    ASSERT_INT_EQ(wrong, 0);
+    ASSERT_INT_GE(c1, 20);
+    ASSERT_INT_GE(c2, 20);
+    ASSERT_INT_EQ(harness_stop(&H, SIGTERM, 5000), 0);
+    lws_context_destroy(ctx);
+    wsc_free(A);
+    wsc_free(B);
+    wsc_free(Q);
+    wsc_free(F);
+    wsc_free(P);
 }
 
 /* ------------------------------------------------------------------ fade */
@@ -2011,7 +2239,7 @@ int main(int argc, char **argv)
     sanitized = getenv("MESHSTEER_SANITIZED") && getenv("MESHSTEER_SANITIZED")[0] == '1';
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: test_daemon MESHSTEERD MAKE_MODEL "
-                        "stream|slow|record|limits|origin|idle|kinds|config|labels|listen|invalid|"
+                        "stream|slow|record|limits|origin|idle|kinds|kblend|config|labels|listen|invalid|"
                         "http|horse|human|params [MESHSTEER | MESHSTEER_LOAD]\n");
         return 2;
     }
@@ -2043,6 +2271,8 @@ int main(int argc, char **argv)
         scenario_kinds();
     else if (!strcmp(argv[3], "fade"))
         scenario_fade();
+    else if (!strcmp(argv[3], "kblend"))
+        scenario_kblend();
     else if (!strcmp(argv[3], "params"))
         scenario_params(argc == 5 ? argv[4] : NULL);
     else if (!strcmp(argv[3], "config"))

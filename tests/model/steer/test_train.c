@@ -223,6 +223,36 @@ int main(void)
         s->F[1] = s->F[0];
         s->F[0] = t;
     }
+
+    /* the kernel blend (kblend.h) of the same frames, the synthesis meshsteerd runs per frame
+     * for such a model: no compact form (-ENOTSUP, as for the harmonic kind), finite frames, a
+     * missing marker held, and no allocation per frame (mallinfo2, as for the part model above) */
+    {
+        mdl_train_opts ko = o;
+        ko.kblend = 0.7;
+        mdl_model *km;
+        ASSERT_OK(mdl_steer_train(s, idx, n, rig, NULL, &ko, &km, err), err);
+        mdl_synth *ks;
+        ASSERT_OK(mdl_synth_create(km, 0, &ks, err), err);
+        mdl_params_layout lay;
+        ASSERT_INT_EQ(mdl_synth_params_layout(ks, &lay), -ENOTSUP);
+        uint8_t valid[3] = {1, 1, 1};
+        struct mallinfo2 kb0 = mallinfo2();
+        for (int f = 0; f < 6; f++) {
+            for (int j = 0; j < 3; j++)
+                memcpy(mk + 3 * j, s->V + ((size_t)(2 * f + 1) * s->nv + rig->markers[j].vertex) * 3, 12);
+            valid[2] = f != 5; /* the last frame: one marker held */
+            ASSERT_OK(mdl_synth_markers(ks, mk, valid, Va, NULL), "kernel blend synth");
+            for (int v = 0; v < 3 * s->nv; v++)
+                ASSERT(isfinite(Va[v]));
+        }
+        struct mallinfo2 kb1 = mallinfo2();
+        ASSERT_INT_EQ(kb1.uordblks, kb0.uordblks);
+        ASSERT_INT_EQ(kb1.hblkhd, kb0.hblkhd);
+        printf("tube kernel blend: 6 frames, no params layout, no allocation\n");
+        mdl_synth_destroy(ks);
+        mdl_model_destroy(km);
+    }
     free(Va);
     free(Vb);
     free(idx);
