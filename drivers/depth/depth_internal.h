@@ -80,6 +80,9 @@ struct drv__extremum {
                          camera's +X / -X side (drv__segment_arm_loops) */
     float path_hmax;  /* the highest point (metres above the source, along `up`) of its shortest
                          path from the source: an arm's path climbs to the shoulder, a leg's not */
+    float path_lmax;  /* the farthest its shortest path from the source goes to either side
+                         (metres along `right`): an arm's passes through its shoulder, a neck's
+                         stays near the body's mid-plane */
     int hidden_end;   /* the limb ends at an occluding edge: a nearer surface lies next to its tip,
                          so the limb goes on behind it (a hand behind the hip) */
     float hidden[3];  /* then: the tip carried on behind the edge along the limb's direction */
@@ -119,7 +122,8 @@ float drv__geodesic_quantum(const drv_depth_opts *o, int step, float z_near);
 /* Accumulative geodesic extrema on the person's cells of g, starting from `source` (a person cell).
  * Returns the number found (<= max), in the order found. */
 int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,
-                          int source, const float up[3], drv__extremum *ex, int max);
+                          int source, const float up[3], const float right[3], drv__extremum *ex,
+                          int max);
 
 /* The geodesic graph's max_jump for a person at depth z (markers.c): at least MAX_JUMP_STEPS of
  * the sensor's depth steps there. */

@@ -14,7 +14,9 @@
  * decreases, which gives exactly the multi-source distances at a fraction of a full run.
  * paper -> code: c -> `source`, d -> ge->dist, e_k -> ex[k].cell.
  * The first pass also records, per cell, the highest point of its shortest path from the source
- * (along the body's up axis): a hand's path climbs to the shoulder, a foot's does not.
+ * (along the body's up axis): a hand's path climbs to the shoulder, a foot's does not; and, per
+ * extremum, how far its path (first pass) goes to either side along the body's `right`: an arm's
+ * passes its shoulder, a neck's stays near the mid-plane.
  * Per extremum we also keep the mean of the cells within tip_radius (a less noisy marker than the
  * single farthest cell) and an anchor, which tells left from right when the tips cross: the point
  * ANCHOR_BACK back from the tip (at most half-way) along its shortest path from the centroid in the
@@ -351,7 +353,8 @@ static void hidden_end(const drv__grid *g, int e, int limb, drv__extremum *x)
 }
 
 int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth_opts *o,
-                          int source, const float up[3], drv__extremum *ex, int max)
+                          int source, const float up[3], const float right[3], drv__extremum *ex,
+                          int max)
 {
     if (source < 0 || source >= g->n || !g->person[source])
         return 0;
@@ -412,6 +415,13 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
         for (a = e, guard = g->ncells; ge->parent0[a] >= 0 && ge->dist0[a] > dstop && guard-- > 0;)
             a = ge->parent0[a];
         memcpy(x->anchor, g->P + 3 * a, sizeof x->anchor);
+        x->path_lmax = 0;
+        for (a = e, guard = g->ncells; a >= 0 && guard-- > 0; a = ge->parent0[a]) {
+            const float *p = g->P + 3 * a;
+            const float l = fabsf((p[0] - ps[0]) * right[0] + (p[1] - ps[1]) * right[1] +
+                                  (p[2] - ps[2]) * right[2]);
+            x->path_lmax = l > x->path_lmax ? l : x->path_lmax;
+        }
         hidden_end(g, e, limb, x);
         double tip[3] = {0, 0, 0};
         int ntip = 0;

@@ -13,14 +13,21 @@
  *          (s = +1 left, -1 right; m = the highest point of its shortest path from the centroid
  *          above the centroid: an arm's path climbs to the shoulder - a leg's or a dress hem's not;
  *          the m term only for h < -0.3: a hand beside the chest needs no climb)
+ *          + max(0, ARM_SIDE - w)/0.04 (w = how far its path from the centroid goes to either
+ *          side of the mid-plane, path_lmax: an arm's passes its shoulder; without it the neck,
+ *          with the head out of view or raised arms cut by the image's top edge, looked like a
+ *          fine hand: near the mid-line, far from the centroid)
  *   foot : max(0, -s l_a)/0.04 + max(0, h + 0.75)/0.1 + max(0, 0.7 - g)/0.1 + max(0, m - 0.15)/0.1
  *          (h < -0.55, not on the border)
  *   An extremum touching the image border is a cut through the body, not an extremity: it can
- *   not be a foot, and costs 2 more as a hand (a hand partly out of view) or as the head. It can
- *   be the head only in the top row, when its geodesic from the centroid is at most
- *   HEAD_CUT_SLACK shorter than the person's head length measured on earlier frames with the
- *   head in view (markers.c): the top of the head (pjump: of the neck) is then just above the
- *   image; a neck cut lower down, with the head well out of view, is not reported. Any head
+ *   not be a foot, and costs 2 more as a hand (a hand partly out of view). It can be the head
+ *   only in the top row, when its geodesic from the centroid is at most HEAD_CUT_SLACK shorter
+ *   than the person's head length measured on earlier frames with the head in view (markers.c):
+ *   the top of the head (pjump: of the neck) is then just above the image; a neck cut lower
+ *   down, with the head well out of view, is not reported. Such a cut costs, as the head, the
+ *   length missing above the image, max(0, head_len - g0)/0.1, in place of the 2 (which lost
+ *   most heads at the top edge: pjump at 2.5 m, samba at 2.0 m); markers.c places the head on
+ *   the cut's middle, that length higher. Any head
  *   candidate costs max(0, head_len - HEAD_CUT_SLACK - g0)/0.1 more (g0: its geodesic from the
  *   centroid): an extremum much shorter than the head is a shoulder under a head out of view;
  *   A hand from an arm loop (segment.c) costs 0 for its side's hand and a free hand on that
@@ -50,6 +57,11 @@
 #define HAND_REACH 0.65f /* a hand lies at least the centroid-to-shoulder geodesic (~0.45 m) and a
                            forearm (~0.25 m) from the centroid: a shoulder below a raised arm cut
                            by the image edge is no hand */
+#define ARM_SIDE 0.15f /* metres: an arm's path from the centroid passes through its shoulder,
+                         at least this far to the side of the body's mid-plane (half the
+                         shoulders' breadth, 0.259 x height (Drillis & Contini), is 0.19 m at
+                         1.5 m tall; a path over the shoulder may cut a little inside it); a
+                         neck's path stays within a few cm of the mid-plane */
 #define HEAD_CUT_SLACK 0.08f /* metres: how much shorter than the measured head length a cut
                                  may be and still be the head (the spread of the head's
                                  geodesic over frames in full view: pjump 0.82 - 0.95 m) */
@@ -158,7 +170,8 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
                                      : 0.f;
         s.cost[0][e] = h > 0.1f && (!x->border || head_cut)
                            ? hla / 0.08f + hl / 0.15f + pos(0.3f - h) / 0.1f +
-                                 pos(g - 1.0f) / 0.1f + short_head + b
+                                 pos(g - 1.0f) / 0.1f + short_head +
+                                 (head_cut ? pos(prev->head_len - x->geodesic0) / 0.1f : b)
                            : FLT_MAX;
         if (x->loop) { /* a hand on the hip, from an arm loop: that side's hand only */
             for (int k = 0; k < NL; k++)
@@ -169,7 +182,8 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
             float sg = side == 0 ? 1.f : -1.f;
             s.cost[1 + side][e] = pos(-sg * la) / 0.04f + pos(-0.6f - h) / 0.1f +
                                   pos(HAND_REACH - g) / 0.1f +
-                                  (h < ARM_LOW ? pos(ARM_CLIMB - x->path_hmax) / 0.1f : 0.f) + b;
+                                  (h < ARM_LOW ? pos(ARM_CLIMB - x->path_hmax) / 0.1f : 0.f) +
+                                  pos(ARM_SIDE - x->path_lmax) / 0.04f + b;
             s.cost[3 + side][e] = h < -0.55f && x->border != 1
                                       ? pos(-sg * la) / 0.04f + pos(h + 0.75f) / 0.1f +
                                             pos(0.7f - g) / 0.1f +

@@ -2,7 +2,8 @@
 # test_depth.sh MESHSTEER SRC DATA - issue 12's acceptance of the depth tracker, on the two captured
 # humans (samba, pjump) rendered by the test camera: `meshsteer depth-eval` at the default placement
 # (2.5 m, facing the camera) and at one turned placement per sequence (two for pjump: its hands
-# at -20 degrees were the grid's worst cell at 2.5 m). Asserts head, hand and foot
+# at -20 degrees were the grid's worst cell at 2.5 m), and samba at 2.0 m facing, where her head
+# is at the image's top edge. Asserts head, hand and foot
 # within 10 cm, side_correct, and that markers reported with a certain side are (almost) never the
 # other side's. Thresholds are what the tracker reaches (docs/PERFORMANCE.md, the grid), not lower.
 # Skips (77) without the data.
@@ -16,11 +17,12 @@ done
 
 ge() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a ~ /^[0-9.]+$/ && a + 0 >= b) }'; }
 
-# check SEQ YAW FRAMES HEAD HAND FOOT SIDE: one placement at 2.5 m and its minima
+# check SEQ YAW FRAMES HEAD HAND FOOT SIDE SIDE_WRONG [DISTANCE]: one placement (2.5 m unless
+# DISTANCE) and its minima
 check() {
-    local s=$1 yaw=$2 frames=$3
+    local s=$1 yaw=$2 frames=$3 dist=${9:-2.5}
     expect_status 0 "$ms" depth-eval --mesh "$data/meshes/$s/$s.pc2" --rest "$data/meshes/$s/rest.obj" \
-        --rig "$src/rigs/$s-depth.json" --yaw "$yaw" --frames "$frames" --json
+        --rig "$src/rigs/$s-depth.json" --yaw "$yaw" --distance "$dist" --frames "$frames" --json
     cp "$dir/out" "$dir/$s-$yaw.json"
     echo "$s yaw $yaw: $(cat "$dir/$s-$yaw.json")"
     grep -o '"within_10cm": {[^}]*}' "$dir/$s-$yaw.json" >"$dir/within.json" ||
@@ -28,6 +30,7 @@ check() {
     local k want v i=4
     for k in head hand foot; do
         want=${!i}; i=$((i + 1))
+        [ "$want" = - ] && continue # none in view (feet at 2.0 m)
         v=$(json_num "$dir/within.json" $k)
         ge "$v" "$want" || fail "$s yaw $yaw: $k within 10 cm is '$v', below $want"
     done
@@ -37,10 +40,15 @@ check() {
     le "$v" "$8" || fail "$s yaw $yaw: side_wrong is '$v', above $8"
 }
 
-#      seq   yaw frames  head hand foot side  side_wrong
+# pjump's heads (the neck's top) at 2.5 m and samba's at 2.0 m are mostly at the image's top edge:
+# 0.62 / 0.69 / 0.60 (pjump, yaw 0 / 20 / -20) and 0.14 (samba at 2.0 m, 3 of 21) before the cut
+# head was costed by its missing length and placed on the cut's middle (label.c, markers.c);
+# measured now 0.80 / 0.78 / 0.78 and 0.95.
+#      seq   yaw frames  head hand foot side  side_wrong [distance]
 check samba 0   :       0.95 0.9  0.9  0.9   0.02
-check pjump 0   :       0.6  0.9  0.95 0.94  0.02
+check pjump 0   :       0.77 0.9  0.95 0.94  0.02
 check samba 20  :       0.95 0.95 0.8  0.9   0.02
-check pjump 20  :       0.65 0.82 0.95 0.9   0.02
-check pjump -20 :       0.55 0.8  0.95 0.9   0.02
+check pjump 20  :       0.75 0.82 0.95 0.9   0.02
+check pjump -20 :       0.75 0.8  0.95 0.9   0.02
+check samba 0   :       0.9  0.9  -    0.9   0.02  2.0
 echo "depth: ok"

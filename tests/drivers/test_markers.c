@@ -40,25 +40,37 @@ int main(void)
         ASSERT_INT_GT(r.person_cells, 1000);
         ASSERT_GT(r.person_depth, 1.0f);
         ASSERT_LT(r.person_depth, 1.5f);
-        /* head and both hands */
+        /* head and both hands - except the right hand of depth-data-1399145206, which hangs
+         * below the view: the arm is cut by the image's bottom edge, so the hand may be reported
+         * missing, or else below the torso marker; never at the head (before the arm's
+         * shoulder test, label.c ARM_SIDE, the top of the head was labelled that hand, and the
+         * chin the head) */
+        const int hand_below = !strcmp(frames[i], "depth-data-1399145206");
         ASSERT(r.valid[DRV_DEPTH_HEAD]);
         ASSERT(r.valid[DRV_DEPTH_LHAND]);
-        ASSERT(r.valid[DRV_DEPTH_RHAND]);
-        /* the head is above the torso and is the top of the person unless a hand is raised */
-        ASSERT_GT(r.xyz[DRV_DEPTH_HEAD][1], r.xyz[DRV_DEPTH_TORSO][1] + 0.25f);
+        ASSERT(r.valid[DRV_DEPTH_RHAND] || hand_below);
+        if (hand_below && r.valid[DRV_DEPTH_RHAND])
+            ASSERT_LT(r.xyz[DRV_DEPTH_RHAND][1], r.xyz[DRV_DEPTH_TORSO][1]);
+        /* the head is above the torso (0.33 - 0.51 m in these frames; the chin, labelled head
+         * in depth-data-1399145206 before label.c ARM_SIDE, 0.26 m) and is the top of the person
+         * unless a hand is raised */
+        ASSERT_GT(r.xyz[DRV_DEPTH_HEAD][1], r.xyz[DRV_DEPTH_TORSO][1] + 0.3f);
         ASSERT_LT(fabsf(r.xyz[DRV_DEPTH_HEAD][0] - r.xyz[DRV_DEPTH_TORSO][0]), 0.2f);
         /* hands apart from the head and from each other */
         for (int h = DRV_DEPTH_LHAND; h <= DRV_DEPTH_RHAND; h++) {
+            if (!r.valid[h])
+                continue;
             float dx = r.xyz[h][0] - r.xyz[DRV_DEPTH_HEAD][0], dy = r.xyz[h][1] - r.xyz[DRV_DEPTH_HEAD][1],
                   dz = r.xyz[h][2] - r.xyz[DRV_DEPTH_HEAD][2];
             ASSERT_GT(sqrtf(dx * dx + dy * dy + dz * dz), 0.25f);
         }
-        ASSERT_GT(fabsf(r.xyz[DRV_DEPTH_LHAND][0] - r.xyz[DRV_DEPTH_RHAND][0]), 0.2f);
+        if (r.valid[DRV_DEPTH_RHAND])
+            ASSERT_GT(fabsf(r.xyz[DRV_DEPTH_LHAND][0] - r.xyz[DRV_DEPTH_RHAND][0]), 0.2f);
         /* hands are ends of the arms, not points on the shoulders: at least 0.35 m from the
          * torso marker (in these frames the arms are held out, raised or forward) - except the
          * right hand of depth-data-1399145206, which hangs below the view */
         for (int h = DRV_DEPTH_LHAND; h <= DRV_DEPTH_RHAND; h++) {
-            if (h == DRV_DEPTH_RHAND && !strcmp(frames[i], "depth-data-1399145206"))
+            if (h == DRV_DEPTH_RHAND && hand_below)
                 continue;
             float dx = r.xyz[h][0] - r.xyz[DRV_DEPTH_TORSO][0], dy = r.xyz[h][1] - r.xyz[DRV_DEPTH_TORSO][1],
                   dz = r.xyz[h][2] - r.xyz[DRV_DEPTH_TORSO][2];
