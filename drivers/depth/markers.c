@@ -14,8 +14,9 @@
  * that a head cut a little short by the image's top edge is still found (label.c); such a head is
  * placed on the middle of the cut (the head's axis; the extremum is wherever the cut's farthest
  * cell happens to be, 12-26 cm to the side in 19 of 48 such heads on pjump) and raised by the
- * length missing above the image (head_above_cut). The torso marker is the person's centroid. A hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is
- * placed at the estimated hidden end. A hand from an arm loop (segment.c) is a point on the visible
+ * length missing above the image (head_above_cut). The torso marker is the person's centroid. A
+ * hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is placed at the
+ * estimated hidden end. A hand from an arm loop (segment.c) is a point on the visible
  * surface where the forearm meets the hip; the hand itself lies against the side or back of the
  * hip, so it is moved LOOP_BEHIND = 8 cm back along the viewing ray, a little less than half a
  * hip's depth (~0.2 m). A turned person's hand lies farther behind, which this constant does not

@@ -23,21 +23,22 @@ check() {
     local s=$1 yaw=$2 frames=$3 dist=${9:-2.5}
     expect_status 0 "$ms" depth-eval --mesh "$data/meshes/$s/$s.pc2" --rest "$data/meshes/$s/rest.obj" \
         --rig "$src/rigs/$s-depth.json" --yaw "$yaw" --distance "$dist" --frames "$frames" --json
-    cp "$dir/out" "$dir/$s-$yaw.json"
-    echo "$s yaw $yaw: $(cat "$dir/$s-$yaw.json")"
-    grep -o '"within_10cm": {[^}]*}' "$dir/$s-$yaw.json" >"$dir/within.json" ||
-        fail "$s yaw $yaw: depth-eval printed no within_10cm"
+    local name="$s yaw $yaw at $dist m" js="$dir/$s-$yaw-$dist.json"
+    cp "$dir/out" "$js"
+    echo "$name: $(cat "$js")"
+    grep -o '"within_10cm": {[^}]*}' "$js" >"$dir/within.json" ||
+        fail "$name: depth-eval printed no within_10cm"
     local k want v i=4
     for k in head hand foot; do
         want=${!i}; i=$((i + 1))
         [ "$want" = - ] && continue # none in view (feet at 2.0 m)
         v=$(json_num "$dir/within.json" $k)
-        ge "$v" "$want" || fail "$s yaw $yaw: $k within 10 cm is '$v', below $want"
+        ge "$v" "$want" || fail "$name: $k within 10 cm is '$v', below $want"
     done
-    v=$(json_num "$dir/$s-$yaw.json" side_correct)
-    ge "$v" "$7" || fail "$s yaw $yaw: side_correct is '$v', below $7"
-    v=$(json_num "$dir/$s-$yaw.json" side_wrong)
-    le "$v" "$8" || fail "$s yaw $yaw: side_wrong is '$v', above $8"
+    v=$(json_num "$js" side_correct)
+    ge "$v" "$7" || fail "$name: side_correct is '$v', below $7"
+    v=$(json_num "$js" side_wrong)
+    le "$v" "$8" || fail "$name: side_wrong is '$v', above $8"
 }
 
 # pjump's heads (the neck's top) at 2.5 m and samba's at 2.0 m are mostly at the image's top edge:
