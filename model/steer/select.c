@@ -47,6 +47,34 @@ typedef struct sel_ctx {
     double *ya, *xb;
 } sel_ctx;
 
+/* Fold k holds out the blocks b (of `block` frames) with b % K == k and trains on the rest; with
+ * middle_only it is scored on the middle frame of each whole held-out block only (block odd). */
+static void folds_make(sel_ctx *c, const int *frames, int n, int block, int middle_only)
+{
+    int K = c->K;
+    c->ho_off[0] = c->tr_off[0] = 0;
+    for (int k = 0; k < K; k++) {
+        c->ho_off[k + 1] = c->ho_off[k];
+        c->tr_off[k + 1] = c->tr_off[k];
+        for (int i = 0; i < n; i++) {
+            int b = i / block;
+            if (b % K != k)
+                c->tr[c->tr_off[k + 1]++] = frames[i];
+            else if (!middle_only || (i % block == block / 2 && (b + 1) * block <= n))
+                c->ho[c->ho_off[k + 1]++] = i;
+        }
+    }
+    c->frames = frames;
+}
+
+/* The error at half the validation's spacing, from the errors at the validation's spacing (e1)
+ * and at twice it (e2), for an error that follows a power of the spacing: e1 * (e1 / e2). An
+ * error that does not grow with the spacing is taken as it is (select.h, step 4). */
+static double half_spacing(double e1, double e2)
+{
+    return e2 > e1 && e1 > 0 ? e1 * e1 / e2 : e1;
+}
+
 /* Summed clean and noisy errors of a fold's model on its held-out frames, and of the nearest-frame
  * baseline among the fold's training frames (eval.c's definitions). */
 static int validate(sel_ctx *c, int k, const struct mdl_steer *m, double sum[4], char *err)
@@ -170,6 +198,22 @@ static int score(sel_ctx *c, mdl__steer_fit **f, const mdl_train_opts *o, mdl_se
     return 0;
 }
 
+/* cd's validation at twice the spacing (c2) and its score at half the validation's spacing,
+ * from the errors extrapolated there. */
+static void extrapolate(mdl_select_cand *cd, const mdl_select_cand *c2)
+{
+    cd->spaced = 1;
+    cd->err2_clean = c2->err_clean;
+    cd->base2_clean = c2->base_clean;
+    cd->err2_noisy = c2->err_noisy;
+    cd->base2_noisy = c2->base_noisy;
+    double clean = half_spacing(cd->err_clean, c2->err_clean) /
+                   half_spacing(cd->base_clean, c2->base_clean),
+           noisy = half_spacing(cd->err_noisy, c2->err_noisy) /
+                   half_spacing(cd->base_noisy, c2->base_noisy);
+    cd->score_spaced = fmax(clean, noisy);
+}
+
 int mdl__steer_select(const mdl_meshseq *seq, const int *frames, int n, const mdl_rig *rig,
                       const mdl_train_opts *opts, mdl_train_opts *out, mdl_select_result *res,
                       char *err)
@@ -192,7 +236,8 @@ int mdl__steer_select(const mdl_meshseq *seq, const int *frames, int n, const md
     sel_ctx c = {.seq = seq, .rig = rig, .K = K, .nv = seq->nv, .nm = rig->nmarkers,
                  .noise = opts->select_noise};
     int nv = c.nv, nm = c.nm, rc = 0;
-    mdl__steer_fit *best[8] = {0}, *alt[8] = {0};
+    mdl__steer_fit *best[8] = {0}, *alt[8] = {0}, *wide[8] = {0};
+    sel_ctx c2 = {0}; /* the folds at twice the spacing */
     mdl__steer_parts pbase[8] = {{0}}, psnap[8] = {{0}}; /* per fold: the default and the
                                                             MDL_SELECT_FEW_PARTS partitions */
     c.tr_off = mdl__calloc((size_t)K + 1, sizeof(int));
@@ -211,17 +256,7 @@ int mdl__steer_select(const mdl_meshseq *seq, const int *frames, int n, const md
         goto out;
     }
     memset(c.valid, 1, (size_t)nm);
-    for (int k = 0; k < K; k++) { /* fold k: the blocks b with b % K == k */
-        c.ho_off[k + 1] = c.ho_off[k];
-        c.tr_off[k + 1] = c.tr_off[k];
-        for (int i = 0; i < n; i++) {
-            if ((i / MDL_SELECT_BLOCK) % K == k)
-                c.ho[c.ho_off[k + 1]++] = i;
-            else
-                c.tr[c.tr_off[k + 1]++] = frames[i];
-        }
-    }
-    c.frames = frames;
+    folds_make(&c, frames, n, MDL_SELECT_BLOCK, 0);
     {
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         for (int v = 0; v < nv; v++)
@@ -311,28 +346,56 @@ int mdl__steer_select(const mdl_meshseq *seq, const int *frames, int n, const md
     }
     /* last, the kernel blend of the training meshes instead of the part model (kblend.h): the
      * part model's options above are chosen first, so that they are the part model's best either
-     * way; the blend uses only the input filter among them, so when a blend is chosen the filter
-     * is tried again with it (toggled) */
+     * way. The blend runs without the input filter (unless one is given): its bandwidth is relative
+     * to the best frame's fit, so noisy markers already widen it (select.h, step 4). The
+     * bandwidths are compared among themselves, then the best blend with the part model at the
+     * test's spacing when there are frames enough (extrapolated from a validation at twice the
+     * spacing as well: folds of 3-frame blocks scored on their middle frames), else at the
+     * validation's. */
     static const double kb_alt[MDL_KBLEND_NH] = MDL_KBLEND_H;
-    for (int a = 0; search_kb && a <= MDL_KBLEND_NH && res->ncand < MDL_SELECT_MAX_CAND; a++) {
-        tr = cur;
-        if (a < MDL_KBLEND_NH) {
-            tr.kblend = kb_alt[a];
-        } else {
-            if (!(cur.kblend > 0) || !search_filt)
-                break;
-            tr.filter_noise = cur.filter_noise > 0 ? 0 : opts->select_noise;
+    int spaced = search_kb && n >= 2 * MDL_SELECT_WIDE_BLOCK * K; /* two blocks per fold */
+    if (spaced) {
+        c2 = c;
+        c2.tr_off = mdl__calloc((size_t)K + 1, sizeof(int));
+        c2.ho_off = mdl__calloc((size_t)K + 1, sizeof(int));
+        c2.tr = mdl__calloc((size_t)K * n, sizeof(int));
+        c2.ho = mdl__calloc((size_t)n, sizeof(int));
+        if (!c2.tr_off || !c2.ho_off || !c2.tr || !c2.ho) {
+            rc = mdl__err(err, -ENOMEM, "train: option selection: out of memory");
+            goto out;
         }
-        mdl_select_cand *cd = &res->cand[res->ncand];
+        folds_make(&c2, frames, n, MDL_SELECT_WIDE_BLOCK, 1);
+        mdl_select_cand part2;
+        if ((rc = fits_build(&c2, &cur, NULL, 0, wide, err)) ||
+            (rc = score(&c2, wide, &cur, &part2, err)))
+            goto out;
+        extrapolate(&res->cand[res->chosen], &part2);
+    }
+    int kb_best = -1; /* the best blend, an index into res->cand */
+    for (int a = 0; search_kb && a < MDL_KBLEND_NH && res->ncand < MDL_SELECT_MAX_CAND; a++) {
+        tr = cur;
+        tr.kblend = kb_alt[a];
+        if (search_filt)
+            tr.filter_noise = 0;
+        mdl_select_cand *cd = &res->cand[res->ncand], cd2;
         if ((rc = score(&c, best, &tr, cd, err)))
             goto out;
-        if (cd->score < 0.99 * bs) {
-            bs = cd->score;
-            cur.kblend = tr.kblend;
-            cur.filter_noise = tr.filter_noise;
-            res->chosen = res->ncand;
+        if (spaced) {
+            if ((rc = score(&c2, wide, &tr, &cd2, err)))
+                goto out;
+            extrapolate(cd, &cd2);
         }
+        if (kb_best < 0 || cd->score < 0.99 * res->cand[kb_best].score)
+            kb_best = res->ncand;
         res->ncand++;
+    }
+    if (kb_best >= 0) { /* the best blend against the part model */
+        const mdl_select_cand *kb = &res->cand[kb_best], *pm = &res->cand[res->chosen];
+        if (spaced ? kb->score_spaced < 0.99 * pm->score_spaced : kb->score < 0.99 * pm->score) {
+            cur.kblend = kb->kblend;
+            cur.filter_noise = kb->filter_noise;
+            res->chosen = kb_best;
+        }
     }
     *out = cur;
     clock_gettime(CLOCK_MONOTONIC, &t1);
@@ -340,6 +403,11 @@ int mdl__steer_select(const mdl_meshseq *seq, const int *frames, int n, const md
 out:
     fits_free(best, K);
     fits_free(alt, K);
+    fits_free(wide, K);
+    free(c2.tr_off);
+    free(c2.ho_off);
+    free(c2.tr);
+    free(c2.ho);
     parts_free(pbase, K);
     parts_free(psnap, K);
     free(c.tr_off);

@@ -723,6 +723,13 @@ static void steer_report(const void *impl, const mdl_model *mm, void *obj)
             cJSON_AddNumberToObject(e, "val_baseline_clean", c->base_clean);
             cJSON_AddNumberToObject(e, "val_err_noisy", c->err_noisy);
             cJSON_AddNumberToObject(e, "val_baseline_noisy", c->base_noisy);
+            if (c->spaced) {
+                cJSON_AddNumberToObject(e, "val2_err_clean", c->err2_clean);
+                cJSON_AddNumberToObject(e, "val2_baseline_clean", c->base2_clean);
+                cJSON_AddNumberToObject(e, "val2_err_noisy", c->err2_noisy);
+                cJSON_AddNumberToObject(e, "val2_baseline_noisy", c->base2_noisy);
+                cJSON_AddNumberToObject(e, "score_at_test_spacing", c->score_spaced);
+            }
             cJSON_AddNumberToObject(e, "score", c->score);
             cJSON_AddBoolToObject(e, "chosen", i == r->chosen);
             cJSON_AddItemToArray(ca, e);

@@ -5,9 +5,14 @@
  * between the vertex proposed from frame k and the one proposed from frame 0, and the body and
  * the sides must agree (a left marker is not nearer frame 0's right one).
  *
- * The radius: STABLE_RADIUS of the body's height along up. A proposal that snaps each marker to
+ * The radius: STABLE_RADIUS of the body's height along up, for the medoid over frames
+ * (mdl_rig_propose_frames) from two disjoint sets of frames. A proposal that snaps each marker to
  * a region (a cap's middle, a slab's top) lands anywhere on that region as its shape changes
  * with the pose; a region a few edges across on a 1.7-1.9 m body is 5-8 cm, 3-5 % of the height.
+ * One frame proposed alone is held to SINGLE_RADIUS: not yet a neighbouring vertex, since the
+ * trunk markers (samba's pelvis on a dress, pjump's neck, the horse's withers) sit on wide
+ * regions; measured 0.070-0.080 of the height on 2026-12-02 after the tips were refined (0.118
+ * before, pjump's head on its cut neck), so this guards against falling back.
  *
  * Usage: test_rig_propose [STEP]  (every STEP-th frame; default 10) prints the table of
  * docs/MODEL.md "Stability" and checks the bound on every sequence; exits 77 without the data. */
@@ -16,6 +21,7 @@
 #include "test.h"
 
 #define STABLE_RADIUS 0.05 /* of the body's height */
+#define SINGLE_RADIUS 0.085 /* of the body's height, one frame alone */
 
 typedef struct seqcase {
     const char *name, *path, *rest;
@@ -143,6 +149,7 @@ static void run(const seqcase *c, int step, double *worst_frac)
     ASSERT_INT_EQ(refused, 0);
     ASSERT_INT_EQ(bodies, 0);
     ASSERT_INT_EQ(flips, 0);
+    ASSERT_LE(worst / height, SINGLE_RADIUS);
     /* the medoid over frames (mdl_rig_propose_frames) from two disjoint sets of frames, every
      * step-th from 0 and every step-th from step / 2: the same rig within the radius */
     int half = step / 2 > 0 ? step / 2 : 1, na = 0, nb = 0;
@@ -217,6 +224,7 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         if (only < 0 || (size_t)only == i)
             run(&cases[i], step ? step : cases[i].step, &worst);
-    printf("worst over the sequences: %.3f of the height (bound %.2f)\n", worst, STABLE_RADIUS);
+    printf("worst over the sequences, one frame alone: %.3f of the height (bound %.3f)\n", worst,
+           SINGLE_RADIUS);
     return 0;
 }

@@ -6,7 +6,9 @@
  *     validation errors and exactly one choice, no worse than the defaults; two runs give the
  *     same report (deterministic); options given are not searched; select_folds 0 runs none;
  *   - a model with the filter saved and loaded synthesises the same frames (the STER trailer);
- *     so does one with the kernel blend (kblend.h; trailer version 2), and the selection tries it. */
+ *     so does one with the kernel blend (kblend.h; trailer version 2), and the selection tries it;
+ *   - on 24 frames the part model and each blend are validated at twice the spacing too, and
+ *     their scores at the test's spacing follow from the reported errors (select.h, step 4). */
 #include "model.h"
 #include "steer/mfilter.h"
 #include "core/util.h"
@@ -19,15 +21,52 @@
 #include <string.h>
 #include <unistd.h>
 
-static mdl_model *train(const mdl_meshseq *s, const mdl_rig *rig, const mdl_train_opts *o)
+static mdl_model *train_frames(const mdl_meshseq *s, const mdl_rig *rig, const mdl_train_opts *o,
+                               const char *frames)
 {
     char err[MDL_ERR_LEN] = "";
     int *idx, n;
-    ASSERT_OK(mdl_parse_frames("0:24:2", s->frames, &idx, &n, err), err);
+    ASSERT_OK(mdl_parse_frames(frames, s->frames, &idx, &n, err), err);
     mdl_model *m;
     ASSERT_OK(mdl_steer_train(s, idx, n, rig, NULL, o, &m, err), err);
     free(idx);
     return m;
+}
+
+static mdl_model *train(const mdl_meshseq *s, const mdl_rig *rig, const mdl_train_opts *o)
+{
+    return train_frames(s, rig, o, "0:24:2");
+}
+
+/* The error at half the validation's spacing (select.h, step 4), computed here independently. */
+static double half(double e1, double e2)
+{
+    return e2 > e1 ? e1 * e1 / e2 : e1;
+}
+
+/* Candidates validated at two spacings in a selection report; each one's score is checked
+ * against its four extrapolated errors. */
+static int count_spaced(cJSON *cands)
+{
+    int n = 0;
+    for (int i = 0; i < cJSON_GetArraySize(cands); i++) {
+        cJSON *c = cJSON_GetArrayItem(cands, i);
+        if (!cJSON_GetObjectItem(c, "val2_err_clean"))
+            continue;
+        double v[8];
+        static const char *const keys[8] = {
+            "val_err_clean",  "val_baseline_clean",  "val_err_noisy",  "val_baseline_noisy",
+            "val2_err_clean", "val2_baseline_clean", "val2_err_noisy", "val2_baseline_noisy"};
+        for (int k = 0; k < 8; k++) {
+            v[k] = cJSON_GetNumberValue(cJSON_GetObjectItem(c, keys[k]));
+            ASSERT(v[k] > 0);
+        }
+        double want = fmax(half(v[0], v[4]) / half(v[1], v[5]), half(v[2], v[6]) / half(v[3], v[7]));
+        double got = cJSON_GetNumberValue(cJSON_GetObjectItem(c, "score_at_test_spacing"));
+        ASSERT(fabs(got - want) <= 1e-9 * want);
+        n++;
+    }
+    return n;
 }
 
 static double noisy_err(const mdl_model *m, const mdl_meshseq *s)
@@ -136,7 +175,27 @@ int main(void)
     double sc = cJSON_GetNumberValue(cJSON_GetObjectItem(cJSON_GetArrayItem(cands, chosen), "score"));
     printf("selection: %d candidates, chose %d (score %.3f, defaults %.3f)\n", nc, chosen, sc, s0);
     ASSERT_LE(sc, s0);
+    ASSERT_INT_EQ(count_spaced(cands), 0); /* 12 frames: too few for folds of 3-frame blocks */
     cJSON_Delete(rep);
+
+    /* 24 frames: the part model and each blend compared at two spacings (select.h, step 4) */
+    {
+        mdl_model *mw = train_frames(horse, rig, &o, "0:48:2");
+        char *jw = mdl_model_report_json(mw);
+        cJSON *rw = cJSON_Parse(jw);
+        cJSON *cw = cJSON_GetObjectItem(cJSON_GetObjectItem(rw, "selection"), "candidates");
+        int nblend = 0;
+        for (int i = 0; i < cJSON_GetArraySize(cw); i++)
+            nblend += cJSON_GetNumberValue(
+                          cJSON_GetObjectItem(cJSON_GetArrayItem(cw, i), "kernel_blend")) > 0;
+        int ns = count_spaced(cw);
+        printf("selection on 24 frames: %d candidates at two spacings (%d blends)\n", ns, nblend);
+        ASSERT_INT_GE(nblend, 3);
+        ASSERT_INT_EQ(ns, nblend + 1); /* the blends and the part model they are compared with */
+        cJSON_Delete(rw);
+        free(jw);
+        mdl_model_destroy(mw);
+    }
 
     /* deterministic: the same report again (but the timings) */
     mdl_model *m2 = train(horse, rig, &o);
