@@ -78,6 +78,11 @@ struct drv__extremum {
                          goes on above the image (label.c: a head cut a little short) */
     int loop;         /* 0: a geodesic extremum; +1 / -1: a hand estimated from an arm loop on the
                          camera's +X / -X side (drv__segment_arm_loops) */
+    int loop_rim;     /* then: the forearm's rim cells its depth line was fitted on (0 = no
+                         line: too few), */
+    float loop_slope; /*   the line's depth change per metre across the image from the elbow
+                           to the contact (< 0: the forearm comes towards the camera), */
+    float loop_z;     /*   and its depth at the contact (metres along the axis) */
     float path_hmax;  /* the highest point (metres above the source, along `up`) of its shortest
                          path from the source: an arm's path climbs to the shoulder, a leg's not */
     float path_lmax;  /* the farthest its shortest path from the source goes to either side

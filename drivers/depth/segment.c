@@ -24,7 +24,11 @@
  *    0.08 m^2 whose rim spans less than LOOP_DEPTH in depth (an arm reaching forward past the
  *    torso leaves a gap too, but its rim is half arm, half torso far behind) gives a hand: its lowest cell B is where the wrist meets the hip; its cell farthest
  *    to the side O lies inside the elbow, so O -> B is the forearm's direction, and the finger tips
- *    lie a hand's length (LOOP_HAND m) beyond B along it, on the body.
+ *    lie a hand's length (LOOP_HAND m) beyond B along it, on the body. The forearm's depth along
+ *    O -> B is a least-squares line through the hole's rim cells beside that chord, on its side
+ *    away from the hole's middle (at least LOOP_RIM_MIN of them, between O and B): its slope
+ *    (depth per metre across the image) and its depth at B go with the hand (markers.c places it
+ *    in front of the body or behind the hip from them).
  */
 #include "depth_internal.h"
 
@@ -445,6 +449,7 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
 #define LOOP_HAND 0.10f
 #define LOOP_DEPTH 0.25f
 #define LOOP_MAX_HOLES 64
+#define LOOP_RIM_MIN 3.f /* rim cells for the forearm's depth line */
 
 int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
                            const float right[3], drv__extremum *ex, int max)
@@ -591,8 +596,42 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
         }
         if (tip < 0)
             continue;
+        /* the forearm's depth from the elbow (t = 0 at O) to the contact (t = 1 at B): a
+         * least-squares line through the rim cells beside the chord O -> B on its side away from
+         * the hole's middle (the torso's and the upper arm's rim lie on the other side) */
+        const float ox = (float)(oc % gw), oy = (float)(oc / gw);
+        const float cx = (float)(b % gw) - ox, cy = (float)(b / gw) - oy; /* O -> B, cells */
+        const float c2 = cx * cx + cy * cy;
+        const float mx = su / (float)count - ox, my = sv / (float)count - oy;
+        const float inner = cx * my - cy * mx > 0 ? 1.f : -1.f; /* the hole's side of the chord */
+        float n = 0, st = 0, sz = 0, stt = 0, stz = 0;
+        for (int k = 0; k < count; k++) {
+            const int j = g->hole_cells[k], x = j % gw, y = j / gw;
+            for (int d = 0; d < 4; d++) {
+                const int xx = x + d4[d][0], yy = y + d4[d][1];
+                if (xx < 0 || yy < 0 || xx >= gw || yy >= gh || !g->person[yy * gw + xx])
+                    continue;
+                const float px = (float)xx - ox, py = (float)yy - oy;
+                const float t = (px * cx + py * cy) / c2;
+                if (t < 0.f || t > 1.f || inner * (cx * py - cy * px) > 0.f)
+                    continue;
+                const float zr = g->z[yy * gw + xx];
+                n += 1.f;
+                st += t;
+                sz += zr;
+                stt += t * t;
+                stz += t * zr;
+            }
+        }
+        const float den = n * stt - st * st;
         drv__extremum *e = &ex[nout++];
         memset(e, 0, sizeof *e);
+        if (n >= LOOP_RIM_MIN && den > 1e-6f) {
+            const float sl = (n * stz - st * sz) / den; /* metres of depth per O -> B */
+            e->loop_rim = (int)n;
+            e->loop_slope = sl / (sqrtf(c2) * cell_m);
+            e->loop_z = (sz - sl * st) / n + sl; /* the line's depth at B */
+        }
         e->cell = tip;
         e->loop = side > 0 ? 1 : -1;
         memcpy(e->tip, g->P + 3 * tip, sizeof e->tip);

@@ -44,12 +44,14 @@ check() {
 # pjump's heads (the neck's top) at 2.5 m and samba's at 2.0 m are mostly at the image's top edge:
 # 0.62 / 0.69 / 0.60 (pjump, yaw 0 / 20 / -20) and 0.14 (samba at 2.0 m, 3 of 21) before the cut
 # head was costed by its missing length and placed on the cut's middle (label.c, markers.c);
-# measured now 0.80 / 0.78 / 0.78 and 0.95.
+# measured now 0.80 / 0.78 / 0.78 and 0.95. pjump's hands at -20 degrees, held before the belly
+# and found from arm loops: 0.83 -> 0.86 once such a hand is placed at its forearm's depth
+# rather than behind the hip (markers.c).
 #      seq   yaw frames  head hand foot side  side_wrong [distance]
 check samba 0   :       0.95 0.9  0.9  0.9   0.02
 check pjump 0   :       0.77 0.9  0.95 0.94  0.02
 check samba 20  :       0.95 0.95 0.8  0.9   0.02
 check pjump 20  :       0.75 0.82 0.95 0.9   0.02
-check pjump -20 :       0.75 0.8  0.95 0.9   0.02
+check pjump -20 :       0.75 0.85 0.95 0.9   0.02
 check samba 0   :       0.9  0.9  -    0.9   0.02  2.0
 echo "depth: ok"
