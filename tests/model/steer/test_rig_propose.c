@@ -11,7 +11,7 @@
  * with the pose; a region a few edges across on a 1.7-1.9 m body is 5-8 cm, 3-5 % of the height.
  * One frame proposed alone is held to SINGLE_RADIUS: not yet a neighbouring vertex, since the
  * trunk markers (samba's pelvis on a dress, pjump's neck, the horse's withers) sit on wide
- * regions; measured 0.070-0.080 of the height on 2026-12-02 after the tips were refined (0.118
+ * regions; measured 0.061-0.080 of the height on 2026-12-02 after the tips were refined (0.118
  * before, pjump's head on its cut neck), so this guards against falling back.
  *
  * Usage: test_rig_propose [STEP]  (every STEP-th frame; default 10) prints the table of
