@@ -59,9 +59,9 @@
  *      the test's spacing is the same max of the two ratios, from those errors, and the blend
  *      is chosen when it is lower by more than 1 %. pjump with the rig proposed from its frame 0
  *      (`meshsteer rig`): the part model scored 0.759 at one step and 0.984 at the test's
- *      spacing, against 1.18 on the test frames (10 mm noise), the blend 0.756 and 0.593 against
- *      0.52; one step alone kept the part model. Needs two blocks per fold (6 K training
- *      frames); with fewer (the horse's 12) the comparison stays at one step.
+ *      spacing, against 1.16 on the test frames (10 mm noise), the blend (0.7, no filter) 0.761
+ *      and 0.599 against 0.51; one step alone kept the part model. Needs two blocks per fold
+ *      (6 K training frames); with fewer (the horse's 12) the comparison stays at one step.
  *   5. The chosen options are applied to a final fit on all training frames.
  * Cost: per fold one clustering, one structural fit per structural candidate and one regression
  * refit per candidate, and 2 x (held-out frames + blocks) synthesised frames per candidate; for
