@@ -32,7 +32,8 @@ function bytes(msg) {
 // after them, or earlier by poll() (the page calls it at the start of each animation frame: Chrome
 // may run the next animation frame before that task, and the frame would miss it); those it
 // replaced are reported to onSkipped (a page slower than the stream skips frames instead of
-// falling behind, as a /stream client does). Returns { send(obj), poll() }.
+// falling behind, as a /stream client does). waiting() says whether a frame is held that poll()
+// would pass on. Returns { send(obj), poll(), waiting() }.
 export function natsLink(servers, prefix, encoding, handlers) {
   let nc = null, frames = null, enc = encoding, newest = null, replaced = 0;
   const subject = s => `${prefix}.${s}`;
@@ -107,6 +108,7 @@ export function natsLink(servers, prefix, encoding, handlers) {
 
   return {
     poll: deliver,
+    waiting: () => newest !== null,
     send(obj) {
       if (!nc || nc.isClosed()) return;
       if (obj.type === 'ping') { // an unanswered ping is only a lost clock sample, as on /stream

@@ -25,6 +25,8 @@ const stats = {
   fps: 0, generation: 0,
   tickHz: 0,          // animation frames the browser gave the page per second (what it can draw)
   ticks: 0,           // animation frames the browser gave the page, in all
+  readyTicks: 0,      // of those, the ones that began with a received frame not yet drawn
+  readyDrawn: 0,      // of those, the ones on which the page drew a new frame (it should: all)
   encoding: ['int16', 'params'].includes(params.get('encoding')) ? params.get('encoding') : 'float32',
   paramsModels: 0, paramsFrames: 0, // params models (MSPM) and params frames received
   transport: '',      // 'websocket' (the daemon's /stream) or 'nats' (?nats=ws://...)
@@ -462,6 +464,9 @@ function draw() {
   requestAnimationFrame(draw);
   tickCount++;
   stats.ticks++;
+  // a received frame is waiting: decoded (pending), or still held by the NATS link
+  const ready = pending !== null || (link !== null && link.waiting());
+  if (ready) stats.readyTicks++;
   if (link) link.poll(); // the newest NATS frame that arrived since the last animation frame
   if (pending && mesh) {
     if (pending.encoding === PP.ENC_PARAMS) { // the GPU rebuilds the mesh
@@ -496,6 +501,7 @@ function draw() {
     }
     pending = null;
     stats.rendered++;
+    if (ready) stats.readyDrawn++;
     fpsCount++;
     dirty = true;
   }

@@ -93,8 +93,10 @@ export async function drive(body) {
 }
 
 // Opens the viewer at url, waits until it has drawn 30 frames, then watches it 3 s more for its
-// fps and latency to settle; prints window.meshsteer and returns a copy of it, with drawShare: the
-// share of the animation frames the browser gave the page in those 3 s on which it drew a new frame.
+// fps and latency to settle; prints window.meshsteer and returns a copy of it, with, over those
+// 3 s: readyShare, the share of the animation frames that began with a received frame not yet
+// drawn on which the page drew a new frame; ready, how many began so; tickShare, the share of all
+// animation frames on which it drew a new frame.
 export async function openViewer(page, url) {
   await page.goto(url, { waitUntil: 'load' });
   // 30 frames drawn and 100 received (decoded, or replaced by a newer one first): a daemon under
@@ -105,22 +107,29 @@ export async function openViewer(page, url) {
   const before = await page.evaluate(() => ({ ...window.meshsteer }));
   await page.waitForTimeout(3000);
   const s = await page.evaluate(() => ({ ...window.meshsteer }));
-  s.drawShare = (s.rendered - before.rendered) / Math.max(1, s.ticks - before.ticks);
+  s.ready = s.readyTicks - before.readyTicks;
+  s.readyShare = (s.readyDrawn - before.readyDrawn) / Math.max(1, s.ready);
+  s.tickShare = (s.rendered - before.rendered) / Math.max(1, s.ticks - before.ticks);
   console.log(JSON.stringify(s));
   return s;
 }
 
-// Headless Chromium renders WebGL in software (SwiftShader) on a shared 2-core machine: 5-15 fps
-// here, depending on the machine and what runs beside it. What the viewer controls is that it draws
-// a new frame on (nearly) every animation frame the browser gives it while the 30 fps source is
-// faster; so the check is that share over openViewer's 3 s (one 0.5 s fps window holds only 2-4
-// draws at these rates: too few to judge by). Under a sanitizer (MESHSTEER_SANITIZED=1,
-// scripts/run.sh) the daemon's frames arrive late and in bursts, and the check only asks for a
-// third of that share, as the daemon tests do (tests/server/test_daemon.c).
+// What the viewer controls is that it never sits on a frame: every animation frame that begins
+// with a received frame not yet drawn draws it (the page takes the newest at the start of each
+// animation frame, nats_link.js poll()). That is the check, over openViewer's 3 s, with at least
+// 15 such animation frames (5 per second) so that it judges something (5 under a sanitizer). The share of all
+// animation frames with a new frame is printed but not judged: headless Chromium renders WebGL in
+// software (SwiftShader) on a shared 2-core machine, and when it gives the page as many animation
+// frames as the 30 fps source sends frames, or more, the frames arrive two per read of a busy main
+// thread (NATS) and that share falls to about half with nothing wrong in the page (CI, 2026-12-02:
+// 50-53% at 28 animation frames/s; 95-100% at 12).
 export function checkDrawRate(s) {
-  const want = process.env.MESHSTEER_SANITIZED === '1' ? 0.6 / 3 : 0.6;
-  check(s.drawShare >= want && s.fps > 1,
-        `drew a new frame on ${(100 * s.drawShare).toFixed(0)}% of the browser's animation frames ` +
-        `in 3 s (at least ${100 * want}%; fps ${s.fps.toFixed(1)}, the browser gave ` +
-        `${s.tickHz.toFixed(1)} animation frames/s, source 30)`);
+  // under a sanitizer (MESHSTEER_SANITIZED=1, scripts/run.sh) the daemon's frames arrive late and
+  // in bursts: fewer animation frames begin with one waiting (TSan: fps 3.5)
+  const least = process.env.MESHSTEER_SANITIZED === '1' ? 5 : 15;
+  check(s.readyShare >= 0.9 && s.ready >= least && s.fps > 1,
+        `drew a new frame on ${(100 * s.readyShare).toFixed(0)}% of the ${s.ready} animation ` +
+        `frames in 3 s that began with a frame waiting (at least 90% of at least ${least}; fps ` +
+        `${s.fps.toFixed(1)}; a new frame on ${(100 * s.tickShare).toFixed(0)}% of all, the browser ` +
+        `gave ${s.tickHz.toFixed(1)} animation frames/s, source 30)`);
 }
