@@ -17,10 +17,12 @@
  * feet reported valid, the fraction that lie more than 10 cm from their own side's ground truth and
  * within 10 cm of the other side's (a confident swap). wrong_reports[kind] = of the markers of that
  * kind reported (found), the fraction with no ground truth of the kind within 10 cm (also when it
- * is out of view: a confident marker where there is none). hidden_hands: hands inside the image
- * whose pixel shows a surface more than HIDDEN_BEHIND nearer than the hand (behind the body);
- * of them, the fraction found within 10 cm (predicted) and the fraction with no same-label marker
- * (marked missing). Errors are distances to the nearest extracted marker of the same kind (a
+ * is out of view: a confident marker where there is none); confident_wrong[kind] = the same, of
+ * the markers reported valid (what a consumer takes for a measurement). hidden_hands: hands inside
+ * the image whose pixel shows a surface more than HIDDEN_BEHIND nearer than the hand (behind the
+ * body); of them, the fraction found within 10 cm (predicted), the fraction whose same-label
+ * marker is reported inferred (drv_depth_result.inferred: not valid) and the fraction with no
+ * same-label marker (marked missing). Errors are distances to the nearest extracted marker of the same kind (a
  * missing marker counts as infinite and is left out of the error percentiles). Times are those of
  * drv_depth_tracker_process alone.
  * Lists of yaws and distances (--yaw -35,0,35 --distance 2,2.5) run every placement in turn, each
@@ -66,7 +68,8 @@ static void help(void)
            "                   each frame's centroid is held at --distance; sideways travel is kept)\n"
            "  --per-frame      print one line per frame: each ground-truth marker's error to the\n"
            "                   same-label extracted marker (cm, '-' = none, '?' after it = side\n"
-           "                   uncertain, 'o' = out of view, 'h' = hidden behind the body) and the\n"
+           "                   uncertain, '~' = inferred, 'o' = out of view, 'h' = hidden behind\n"
+           "                   the body) and the\n"
            "                   extrema with their labels (diagnostics, before the summary)\n"
            "  --dump-depth FILE  write every rendered frame to FILE as raw 640x480 little-endian\n"
            "                   uint16 millimetres, frame after frame (for offline debugging)\n"
@@ -75,8 +78,9 @@ static void help(void)
            "either side, within 10 cm of the ground truth in view), side_correct (the same side's\n"
            "marker reported valid - its side certain - and within 10 cm), side_uncertain,\n"
            "side_wrong (confident swaps), wrong_reports (markers reported where no ground truth\n"
-           "of the kind is within 10 cm), hidden_hands (hands behind the body: how many, how many\n"
-           "predicted within 10 cm, how many marked missing).\n",
+           "of the kind is within 10 cm), confident_wrong (the same, of the markers reported\n"
+           "valid), hidden_hands (hands behind the body: how many, how many predicted within\n"
+           "10 cm, how many reported inferred - not valid - and how many marked missing).\n",
            MAX_PLACEMENTS);
 }
 
@@ -302,8 +306,8 @@ static void place_frame(const de_scene *sc, const float *Vf, int nv, int travel,
 typedef struct de_scores {
     int hit[3], total[3], nerr[3];
     int side_ok, side_total, side_unsure, side_wrong, side_reported;
-    int reported[3], reported_wrong[3];
-    int hidden, hidden_hit, hidden_missing;
+    int reported[3], reported_wrong[3], confident[3], confident_wrong[3];
+    int hidden, hidden_hit, hidden_missing, hidden_inferred;
     int per_label_hit[5], per_label_total[5];
     int out_of_view;
     double *ms, *errs[3];
@@ -334,7 +338,7 @@ static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_re
     uint8_t found[5];
     for (int l = 0; l < 5; l++) {
         drv_render_world_to_camera(ren, V + 3 * gv[l], gt[l]);
-        found[l] = res->valid[l] || res->side_uncertain[l];
+        found[l] = res->valid[l] || res->side_uncertain[l] || res->inferred[l];
         double gu, gvv;
         inview[l] = !drv_intrinsics_project(k, gt[l], &gu, &gvv) && gu >= 4 && gvv >= 4 &&
                     gu <= k->width - 5 && gvv <= k->height - 5;
@@ -350,7 +354,8 @@ static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_re
         if (per_frame) {
             if (found[l])
                 printf(" %s %3.0f%s(%3.0f,%3.0f)", drv_depth_label_names[l],
-                       100 * dist3(res->xyz[l], gt[l]), res->side_uncertain[l] ? "?" : hidden ? "h" : "",
+                       100 * dist3(res->xyz[l], gt[l]),
+                       res->side_uncertain[l] ? "?" : res->inferred[l] ? "~" : hidden ? "h" : "",
                        gu, gvv);
             else
                 printf(" %s   -%s(%3.0f,%3.0f)", drv_depth_label_names[l], hidden ? "h" : "", gu,
@@ -385,6 +390,7 @@ static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_re
             sc->hidden++;
             sc->hidden_hit += best <= 0.10f;
             sc->hidden_missing += !found[l];
+            sc->hidden_inferred += res->inferred[l];
         }
     }
     /* the reports: is there a ground truth of the kind where a marker was reported? */
@@ -395,6 +401,10 @@ static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_re
         float own = dist3(res->xyz[m], gt[m]), other = kind ? dist3(res->xyz[m], gt[other_side(m)]) : INFINITY;
         sc->reported[kind]++;
         sc->reported_wrong[kind] += !(own <= 0.10f) && !(other <= 0.10f);
+        if (res->valid[m]) {
+            sc->confident[kind]++;
+            sc->confident_wrong[kind] += !(own <= 0.10f) && !(other <= 0.10f);
+        }
         if (kind && res->valid[m] && inview[m]) {
             sc->side_reported++;
             sc->side_wrong += !(own <= 0.10f) && other <= 0.10f;
@@ -430,17 +440,19 @@ static void print_report(const de_args *o, double distance, double yaw, de_score
     if (!o->json) {
         if (first)
             printf("frames %d; within 10 cm per kind (ground truths in view), side: correct / "
-                   "uncertain / confidently wrong; hands behind the body: found / missing\n"
+                   "uncertain / confidently wrong; hands behind the body: found / inferred / "
+                   "missing; hand reports confident and wrong\n"
                    "  dist    yaw   head         hand         foot         side               "
-                   "hidden hands      ms median/p99\n",
+                   "hidden hands            wrong   ms median/p99\n",
                    nidx);
         printf("  %.2f %6.1f", distance, yaw);
         for (int k = 0; k < 3; k++)
             printf("   %5.3f %4d", rate[k], sc->total[k]);
-        printf("   %5.3f %5.3f %5.3f   %4d %5.3f %5.3f   %.3f/%.3f\n", side,
+        printf("   %5.3f %5.3f %5.3f   %4d %5.3f %5.3f %5.3f   %5.3f   %.3f/%.3f\n", side,
                ratio(sc->side_unsure, sc->side_total), ratio(sc->side_wrong, sc->side_reported),
-               sc->hidden, ratio(sc->hidden_hit, sc->hidden), ratio(sc->hidden_missing, sc->hidden),
-               med, p99);
+               sc->hidden, ratio(sc->hidden_hit, sc->hidden),
+               ratio(sc->hidden_inferred, sc->hidden), ratio(sc->hidden_missing, sc->hidden),
+               ratio(sc->confident_wrong[1], sc->confident[1]), med, p99);
         return;
     }
     printf("{\"frames\": %d, \"distance\": %.3f, \"yaw\": %.3f, \"travel\": %s, \"within_10cm\": {",
@@ -455,8 +467,12 @@ static void print_report(const de_args *o, double distance, double yaw, de_score
     printf("\"wrong_reports\": {");
     for (int k = 0; k < 3; k++)
         jnum(kinds[k], ratio(sc->reported_wrong[k], sc->reported[k]), k < 2);
+    printf("}, \"confident_wrong\": {");
+    for (int k = 0; k < 3; k++)
+        jnum(kinds[k], ratio(sc->confident_wrong[k], sc->confident[k]), k < 2);
     printf("}, \"hidden_hands\": {\"count\": %d, ", sc->hidden);
     jnum("found_10cm", ratio(sc->hidden_hit, sc->hidden), 1);
+    jnum("inferred", ratio(sc->hidden_inferred, sc->hidden), 1);
     jnum("missing", ratio(sc->hidden_missing, sc->hidden), 0);
     printf("}, \"per_marker_same_side_10cm\": {");
     for (int l = 0; l < 5; l++)

@@ -88,6 +88,8 @@ struct drv__extremum {
     float path_lmax;  /* the farthest its shortest path from the source goes to either side
                          (metres along `right`): an arm's passes through its shoulder, a neck's
                          stays near the body's mid-plane */
+    float below_top;  /* metres along its first-pass path from the path's highest point (along
+                         `up`) to the tip: a hanging arm's visible length from its shoulder */
     int hidden_end;   /* the limb ends at an occluding edge: a nearer surface lies next to its tip,
                          so the limb goes on behind it (a hand behind the hip) */
     float hidden[3];  /* then: the tip carried on behind the edge along the limb's direction */

@@ -16,7 +16,8 @@
  * The first pass also records, per cell, the highest point of its shortest path from the source
  * (along the body's up axis): a hand's path climbs to the shoulder, a foot's does not; and, per
  * extremum, how far its path (first pass) goes to either side along the body's `right`: an arm's
- * passes its shoulder, a neck's stays near the mid-plane.
+ * passes its shoulder, a neck's stays near the mid-plane; and how long its path is from its highest
+ * point to the tip (below_top: a hanging arm's visible length from the shoulder, markers.c).
  * Per extremum we also keep the mean of the cells within tip_radius (a less noisy marker than the
  * single farthest cell) and an anchor, which tells left from right when the tips cross: the point
  * ANCHOR_BACK back from the tip (at most half-way) along its shortest path from the centroid in the
@@ -416,7 +417,13 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
             a = ge->parent0[a];
         memcpy(x->anchor, g->P + 3 * a, sizeof x->anchor);
         x->path_lmax = 0;
+        float hbest = -FLT_MAX;
+        x->below_top = 0;
         for (a = e, guard = g->ncells; a >= 0 && guard-- > 0; a = ge->parent0[a]) {
+            if (ge->h[a] > hbest) {
+                hbest = ge->h[a];
+                x->below_top = d0 - ge->dist0[a];
+            }
             const float *p = g->P + 3 * a;
             const float l = fabsf((p[0] - ps[0]) * right[0] + (p[1] - ps[1]) * right[1] +
                                   (p[2] - ps[2]) * right[2]);
