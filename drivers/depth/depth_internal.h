@@ -166,6 +166,9 @@ typedef struct drv__label_prev {
 void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
                        const float right[3], const drv__label_prev *prev, int label[5],
                        float conf[5], uint8_t side_sure[5]);
+/* 1 when a hand's path from the centroid climbs to a shoulder or passes one (ARM_CLIMB, ARM_SIDE
+ * in label.c): it was reached through an arm. An arm-loop hand (segment.c) counts as reached. */
+int drv__label_through_arm(const drv__extremum *x);
 
 /* ------------------------------------------------------------------ One Euro filter (one_euro.c) */
 

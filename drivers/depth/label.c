@@ -119,6 +119,11 @@ static void dfs(search *s, int l, float total)
     dfs(s, l + 1, total + MISS);
 }
 
+int drv__label_through_arm(const drv__extremum *x)
+{
+    return x->loop || x->path_hmax >= ARM_CLIMB || x->path_lmax >= ARM_SIDE;
+}
+
 void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
                        const float right[3], const drv__label_prev *prev, int label[5],
                        float conf[5], uint8_t side_sure[5])

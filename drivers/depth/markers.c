@@ -22,12 +22,15 @@
  * be anywhere within their reach. How far the visible arm goes is measured along the hand's path
  * from its highest point (the shoulder, for an arm that hangs; geodesic.c below_top): shorter than
  * the upper arm (ELBOW_REACH), or longer than a whole arm (ARM_REACH: the highest point is not a
- * shoulder), and the hand is reported inferred (drv_depth_result.inferred), not valid. Measured on
+ * shoulder), and the hand is reported inferred (drv_depth_result.inferred), not valid; so is a hand
+ * not reached through an arm, its path from the centroid neither climbing to a shoulder nor passing
+ * one (drv__label_through_arm; samba at -20 degrees: 1 of 26 such hands within 10 cm). Measured on
  * samba and pjump at 2.5 m, yaw -35..35 (249 hands at hidden ends): within 10 cm in 6 of 176 with
  * the visible arm under 0.3 m and 4 of 24 over 0.55 m, against 36 of 49 between; of the valid
- * hand reports, those with no hand within 10 cm fell in every cell of the grid (samba at -35
- * degrees, 2.5 m: 0.35 -> 0.23; pjump at 2.5 m facing 0.13 -> 0.10), hands within 10 cm did
- * not change (they count inferred hands) and side_correct moved by 0.01 at most. A hand from an
+ * hand reports, those with no hand within 10 cm fell in all but one cell of the grid (samba at -35
+ * degrees, 2.5 m: 0.35 -> 0.23; pjump at 2.5 m facing 0.13 -> 0.10; docs/PERFORMANCE.md), hands
+ * within 10 cm did not change (they count inferred hands) and side_correct fell by less than
+ * 0.01. A hand from an
  * arm loop (segment.c) is a point on the visible
  * surface a hand's length past where the forearm meets the hip in the image; where the hand
  * really is follows from the forearm's depth along the loop's rim, elbow to contact (segment.c
@@ -351,9 +354,10 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 r->valid[l] = 0;
                 r->side_uncertain[l] = 1;
             }
-            if (hand && t->ex[label[l]].hidden_end && (t->ex[label[l]].below_top < ELBOW_REACH ||
-                                                       t->ex[label[l]].below_top > ARM_REACH)) {
-                r->valid[l] = 0; /* forearm and hand behind the occluder: a guess, see the header */
+            const drv__extremum *x = &t->ex[label[l]];
+            if (hand && ((x->hidden_end && (x->below_top < ELBOW_REACH || x->below_top > ARM_REACH)) ||
+                         !drv__label_through_arm(x))) {
+                r->valid[l] = 0; /* the hand is not in view: a guess, see the header */
                 r->inferred[l] = 1;
             }
         } else {
