@@ -13,8 +13,8 @@
  *   label.c     head / lhand / rhand / lfoot / rfoot by a cost assignment in that body frame that
  *               includes the previous frame's markers (temporal consistency), with a confidence
  *               per marker; a hand (foot) pair whose swap costs little has an uncertain side and is
- *               not reported valid (drv_depth_result.side_uncertain), nor is a hand whose arm
- *               disappears behind a nearer surface at or above the elbow (.inferred, markers.c);
+ *               not reported valid (drv_depth_result.side_uncertain), nor is a hand that is
+ *               inferred rather than seen (.inferred, markers.c);
  *   one_euro.c  One Euro filter (Casiez et al. 2012) per marker coordinate.
  * Output frame: the camera's, in metres, Y up: X to the image's right, Y up, Z towards the viewer
  * (the camera looks along -Z). A person facing the camera has their left hand at +X.
@@ -128,10 +128,10 @@ typedef struct drv_depth_result {
                                          hand (foot) it is is not certain (label.c): valid is 0,
                                          so that no consumer takes a guess for a measurement;
                                          lhand and rhand (lfoot, rfoot) may then both be set */
-    uint8_t inferred[DRV_DEPTH_NLABELS]; /* 1: a hand whose visible arm ends, at or above the
-                                         elbow, at a nearer surface (markers.c): xyz is where it
-                                         probably is, behind that surface, not a measurement;
-                                         valid is 0 */
+    uint8_t inferred[DRV_DEPTH_NLABELS]; /* 1: a hand not seen (markers.c): its arm disappears
+                                         behind a nearer surface at or above the elbow, or the
+                                         point labelled is not reached through an arm; xyz is a
+                                         guess, not a measurement, and valid is 0 */
     float conf[DRV_DEPTH_NLABELS];    /* 0..1 */
     int nextrema;                     /* accumulative geodesic extrema found, followed by the hands
                                          estimated from arm loops (geodesic 0), up to the max */

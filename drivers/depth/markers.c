@@ -29,26 +29,24 @@
  * the visible arm under 0.3 m and 4 of 24 over 0.55 m, against 36 of 49 between; of the valid
  * hand reports, those with no hand within 10 cm fell in all but one cell of the grid (samba at -35
  * degrees, 2.5 m: 0.35 -> 0.23; pjump at 2.5 m facing 0.13 -> 0.10; docs/PERFORMANCE.md), hands
- * within 10 cm did not change (they count inferred hands) and side_correct fell by less than
- * 0.01. A hand from an
- * arm loop (segment.c) is a point on the visible
- * surface a hand's length past where the forearm meets the hip in the image; where the hand
- * really is follows from the forearm's depth along the loop's rim, elbow to contact (segment.c
- * fits a line to it). A forearm that lies across the body (its depth level, or coming towards
- * the camera less steeply than 45 degrees: slope above -LOOP_TOWARD) rests its hand on the hip,
- * against the side or back of it: the hand is moved LOOP_BEHIND = 8 cm back along the viewing
- * ray, a little less than half a hip's depth (~0.2 m; samba, hands on the hips/back: hand within
- * 10 cm at yaw +20 0.83 -> 0.98, facing 0.91 -> 0.93; its forearm slopes are -0.73 .. +0.29 at
- * 2.5 m). A forearm that comes towards the camera more steeply than that points at the camera,
- * and its hand is held in front of the body, not on it: the surface seen behind the hand's
- * place is the belly, so the hand is put at the forearm's depth at the contact instead (when
- * nearer) - pjump, hands before the belly at yaw -20 (slopes -1.0 .. -4.1 at 3.2 m), was placed
- * 12-23 cm too far, hands within 10 cm at 3.2 / 3.5 m 0.70 / 0.62 -> 0.75 / 0.69; the SMPL man
- * running 0.19 -> 0.30 facing at 2.5 m; no cell of samba, pjump or the SMPL takes fell. The
- * sign of the slope alone does not tell: samba's level forearms (slope -0.7 .. 0) then lose
- * their push, hands at yaw +20 0.97 -> 0.87. Extrapolating the forearm's line on by a hand's
- * length (5 or 10 cm along it) or putting the hand at the contact itself overshoots (pjump -20,
- * 3.5 m: 0.66, 0.64, 0.63). */
+ * within 10 cm did not change (they count inferred hands) and side_correct fell by less than 0.01.
+ * A hand from an arm loop (segment.c) is a point on the visible surface a hand's length past where
+ * the forearm meets the hip in the image; where the hand really is follows from the forearm's depth
+ * along the loop's rim, elbow to contact (segment.c fits a line to it). A forearm that lies across
+ * the body (its depth level, or coming towards the camera less steeply than 45 degrees: slope above
+ * -LOOP_TOWARD) rests its hand on the hip, against the side or back of it: the hand is moved
+ * LOOP_BEHIND = 8 cm back along the viewing ray, a little less than half a hip's depth (~0.2 m;
+ * samba, hands on the hips/back: hand within 10 cm at yaw +20 0.83 -> 0.98, facing 0.91 -> 0.93;
+ * its forearm slopes are -0.73 .. +0.29 at 2.5 m). A forearm that comes towards the camera more
+ * steeply than that points at the camera, and its hand is held in front of the body, not on it: the
+ * surface seen behind the hand's place is the belly, so the hand is put at the forearm's depth at
+ * the contact instead (when nearer) - pjump, hands before the belly at yaw -20 (slopes -1.0 .. -4.1
+ * at 3.2 m), was placed 12-23 cm too far, hands within 10 cm at 3.2 / 3.5 m 0.70 / 0.62 -> 0.75 /
+ * 0.69; the SMPL man running 0.19 -> 0.30 facing at 2.5 m; no cell of samba, pjump or the SMPL
+ * takes fell. The sign of the slope alone does not tell: samba's level forearms (slope -0.7 .. 0)
+ * then lose their push, hands at yaw +20 0.97 -> 0.87. Extrapolating the forearm's line on by a
+ * hand's length (5 or 10 cm along it) or putting the hand at the contact itself overshoots (pjump
+ * -20, 3.5 m: 0.66, 0.64, 0.63). */
 #include "depth_internal.h"
 
 #include <errno.h>
@@ -325,7 +323,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
             memcpy(p, t->ex[label[l]].tip, sizeof p);
             if (hand && t->ex[label[l]].hidden_end)
                 memcpy(p, t->ex[label[l]].hidden, sizeof p);
-            if ((l == DRV_DEPTH_LHAND || l == DRV_DEPTH_RHAND) && t->ex[label[l]].loop) {
+            if (hand && t->ex[label[l]].loop) {
                 const drv__extremum *x = &t->ex[label[l]];
                 if (x->loop_rim && x->loop_slope <= -LOOP_TOWARD) { /* in front of the body */
                     if (x->loop_z < -p[2])
@@ -355,8 +353,9 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 r->side_uncertain[l] = 1;
             }
             const drv__extremum *x = &t->ex[label[l]];
-            if (hand && ((x->hidden_end && (x->below_top < ELBOW_REACH || x->below_top > ARM_REACH)) ||
-                         !drv__label_through_arm(x))) {
+            const int arm_hidden =
+                x->hidden_end && (x->below_top < ELBOW_REACH || x->below_top > ARM_REACH);
+            if (hand && (arm_hidden || !drv__label_through_arm(x))) {
                 r->valid[l] = 0; /* the hand is not in view: a guess, see the header */
                 r->inferred[l] = 1;
             }
