@@ -27,7 +27,7 @@
  * one (drv__label_through_arm; samba at -20 degrees: 1 of 26 such hands within 10 cm). Measured on
  * samba and pjump at 2.5 m, yaw -35..35 (249 hands at hidden ends): within 10 cm in 6 of 176 with
  * the visible arm under 0.3 m and 4 of 24 over 0.55 m, against 36 of 49 between; of the valid
- * hand reports, those with no hand within 10 cm fell in all but one cell of the grid (samba at -35
+ * hand reports, those with no hand within 10 cm fell in every cell of the grid (samba at -35
  * degrees, 2.5 m: 0.35 -> 0.23; pjump at 2.5 m facing 0.13 -> 0.10; docs/PERFORMANCE.md), hands
  * within 10 cm did not change (they count inferred hands) and side_correct fell by less than 0.01.
  * A hand from an arm loop (segment.c) is a point on the visible surface a hand's length past where
