@@ -177,7 +177,8 @@ int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const flo
  * each frame is proposed on its own (frames refused are skipped), the body is the one most frames
  * gave, and each marker's vertex is the medoid of that marker's vertices over those frames (least
  * summed distance to the others, measured in the first frame). info is the first used frame's,
- * with the chosen body; *nused (may be NULL) gets the number of frames that voted. */
+ * with the chosen body; *nused (may be NULL) gets the number of frames that voted. -EINVAL
+ * unless more than half of the frames gave that body. */
 int mdl_rig_propose_frames(const float *V, int nv, int nframes, const uint32_t *F, int nf,
                            const float up[3], int body, mdl_rig **out, mdl_rig_proposal *info,
                            int *nused, char *err);

@@ -75,7 +75,9 @@
  *
  * Several frames (mdl_rig_propose_frames): each frame proposed alone, then per marker the medoid
  * (the member of least summed distance to the others, as in Kaufman & Rousseeuw's k-medoids) of
- * its vertices over the frames of the majority body, measured in the first frame.
+ * its vertices over the frames of the majority body, measured in the first frame. Refused unless
+ * more than half the frames were proposed as that body: with a wrong --up, 4 of horse-gallop's
+ * 24 frames pass a quadruped's checks (step 7) and one frame alone would not.
  *
  * Training-time only: allocates (one distance field per tip, about 15 fields of nv doubles). */
 #include "model.h"
@@ -956,6 +958,12 @@ int mdl_rig_propose_frames(const float *V, int nv, int nframes, const uint32_t *
         }
     if (ref < 0) {
         e = mdl__err(err, -EINVAL, "rig: every frame was refused (%s)", first_err);
+        goto done;
+    }
+    if (2 * n <= nframes) { /* a body most frames refuse is a guess (a wrong --up, a few poses) */
+        e = mdl__err(err, -EINVAL,
+                     "rig: only %d of %d frames could be proposed as a %s; the first refused: %s", n,
+                     nframes, chosen == MDL_BODY_HUMAN ? "human" : "quadruped", first_err);
         goto done;
     }
     mdl_rig *r = rigs[ref];

@@ -2,7 +2,8 @@
 # test_rig.sh - `meshsteer rig` (issue 12): the rig proposed from the mesh alone names the right
 # extremities on samba and horse-gallop (each within a few cm of the hand-made rig's vertex, in the
 # same frame), left and right not swapped, the same from other frames, a rig that train reads and
-# uses, and clear errors for a body without its extremities and for a wrong --up.
+# uses, and clear errors for a body without its extremities and for a wrong --up. A sequence's
+# default is the medoid over up to 24 of its frames.
 # Usage: test_rig.sh MESHSTEER SRC_DIR DATA_DIR
 set -euo pipefail
 ms=$1 src=$2 data=$3
@@ -56,6 +57,9 @@ near() { # near A.csv NAME_A B.csv NAME_B TOL WHAT
 S=(--mesh "$data/meshes/samba/samba.pc2" --rest "$data/meshes/samba/rest.obj")
 expect_status 0 "$ms" rig "${S[@]}" -o "$dir/samba.json" --sheet "$dir/samba.png"
 grep -q "a human" "$dir/err" || fail "samba was not taken for a human"
+# a sequence's default: the medoid over up to 24 frames spread evenly (175 frames: every 8th)
+grep -q "medoid over frames 0:175:8 (9971 vertices, 22 of 22 frames proposed)" "$dir/samba.json" ||
+    fail "samba's default rig is not the medoid over 0:175:8"
 head -c 8 "$dir/samba.png" | od -An -tx1 | grep -q "89 50 4e 47" || fail "--sheet wrote no PNG"
 pos "${S[@]}" "$dir/samba.json" 0 "$dir/sp.csv"
 pos "${S[@]}" "$src/rigs/samba-7.json" 0 "$dir/sh.csv"
