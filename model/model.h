@@ -178,10 +178,11 @@ int mdl_rig_propose(const float *V, int nv, const uint32_t *F, int nf, const flo
  * gave, and each marker's vertex is the medoid of that marker's vertices over those frames (least
  * summed distance to the others, measured in the first frame). info is the first used frame's,
  * with the chosen body; *nused (may be NULL) gets the number of frames that voted. -EINVAL
- * unless more than half of the frames gave that body. */
-int mdl_rig_propose_frames(const float *V, int nv, int nframes, const uint32_t *F, int nf,
-                           const float up[3], int body, mdl_rig **out, mdl_rig_proposal *info,
-                           int *nused, char *err);
+ * unless more than half of the frames gave that body. frame_no (may be NULL: 0, 1, ...) numbers
+ * the frames in messages, as the caller's sequence does. */
+int mdl_rig_propose_frames(const float *V, int nv, int nframes, const int *frame_no,
+                           const uint32_t *F, int nf, const float up[3], int body, mdl_rig **out,
+                           mdl_rig_proposal *info, int *nused, char *err);
 
 /* ------------------------------------------------------------------ models and their kinds (kind.c) */
 

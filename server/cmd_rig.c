@@ -17,7 +17,9 @@
 /* A sequence's rig by default: the medoid over this many frames at most, spread evenly. One frame
  * alone gives a rig whose trunk markers move 7-13 cm with the pose (docs/MODEL.md "A rig proposed
  * from the mesh"); the medoid over every 10th frame of samba, pjump and horse-gallop lands within
- * 0.006-0.030 of the height whichever frames are taken (tests/model/steer/test_rig_propose.c). */
+ * 0.006-0.030 of the height whichever frames are taken (tests/model/steer/test_rig_propose.c).
+ * When most of those frames are refused (pcow falls and rolls over: 6 of 23 proposed), the first
+ * frame alone. */
 #define DEFAULT_FRAMES 24
 
 static const char usage_text[] =
@@ -37,7 +39,8 @@ static const char usage_text[] =
     "  --frames SPEC   propose from each of these frames (START:STOP:STEP, or a list) and take\n"
     "                  each marker's medoid over them: a rig that does not depend on one pose.\n"
     "                  Default for a sequence: up to %d frames spread evenly over it\n"
-    "                  (0:N:ceil(N/%d)); for one OBJ, that mesh\n"
+    "                  (0:N:ceil(N/%d)), or frame 0 alone when most of them are refused;\n"
+    "                  for one OBJ, that mesh\n"
     "  --body B        human, quadruped or auto (default: auto, a quadruped when four of the\n"
     "                  extremities are near the ground)\n"
     "  --up AXIS       the mesh's up axis: x, y, z, -x, -y, -z (default y)\n"
@@ -232,8 +235,19 @@ int cmd_rig(int argc, char **argv)
         V = fr; /* the first of the frames: the sheet and the medoids are drawn in it */
     }
     mdl_rig_proposal info;
-    rc = frames_spec ? mdl_rig_propose_frames(fr, nv, nidx, F, nf, up, body, &rig, &info, &nused, err)
-                     : mdl_rig_propose(V, nv, F, nf, up, body, &rig, &info, err);
+    rc = frames_spec
+             ? mdl_rig_propose_frames(fr, nv, nidx, idx, F, nf, up, body, &rig, &info, &nused, err)
+             : mdl_rig_propose(V, nv, F, nf, up, body, &rig, &info, err);
+    if (rc == -EINVAL && frames_spec == default_spec) {
+        /* most frames refused (a body that lies down or rolls over, pcow): its first frame alone,
+           which still refuses a wrong --up */
+        fprintf(stderr, "rig: %s: frames %s: %s; proposing from frame 0 alone\n", mesh,
+                frames_spec, err);
+        frames_spec = NULL;
+        frame = 0;
+        V = seq->V;
+        rc = mdl_rig_propose(V, nv, F, nf, up, body, &rig, &info, err);
+    }
     if (rc != 0) {
         if (frames_spec)
             status = cli_fail(cmd, rc == -ENOMEM ? CLI_EXIT_FAIL : CLI_EXIT_USAGE,

@@ -916,9 +916,9 @@ done:
  * first frame), over the frames of the majority body. A marker's vertex in one frame can sit on
  * either side of a flat region (a crown, a back, a cut neck); the medoid is the vertex the
  * majority of frames cluster around, so it changes little with the set of frames. */
-int mdl_rig_propose_frames(const float *V, int nv, int nframes, const uint32_t *F, int nf,
-                           const float up[3], int body, mdl_rig **out, mdl_rig_proposal *info,
-                           int *nused, char *err)
+int mdl_rig_propose_frames(const float *V, int nv, int nframes, const int *frame_no,
+                           const uint32_t *F, int nf, const float up[3], int body, mdl_rig **out,
+                           mdl_rig_proposal *info, int *nused, char *err)
 {
     *out = NULL;
     if (nused)
@@ -942,7 +942,8 @@ int mdl_rig_propose_frames(const float *V, int nv, int nframes, const uint32_t *
         }
         if (r) {
             if (!first_err[0])
-                snprintf(first_err, sizeof first_err, "frame %d: %s", k, e1);
+                snprintf(first_err, sizeof first_err, "frame %d: %s", frame_no ? frame_no[k] : k,
+                         e1);
             rigs[k] = NULL;
             continue;
         }

@@ -108,6 +108,16 @@ for m in lf_hoof rf_hoof lh_hoof rh_hoof tail; do near "$dir/hp24.csv" $m "$dir/
 expect_status 2 "$ms" rig "${H[@]}" --up z --body quadruped -o "$dir/bad.json"
 grep -q -- "--up is wrong" "$dir/err" || fail "the horse with --up z: no word of --up"
 
+# pcow falls and rolls over: most of its frames are refused, so the default is its frame 0 alone
+if [ -d "$data/meshes/pcow" ]; then
+    expect_status 0 "$ms" rig --mesh "$data/meshes/pcow/pcow.pc2" --rest "$data/meshes/pcow/rest.obj" \
+        -o "$dir/pcow.json"
+    grep -q "of 23 frames could be proposed as a quadruped; the first refused: frame 18" "$dir/err" ||
+        fail "pcow: the refused medoid is not explained with the sequence's frame number"
+    grep -q "proposing from frame 0 alone" "$dir/err" || fail "pcow: no word of the fallback"
+    grep -q "pcow.pc2, frame 0 (2904 vertices)" "$dir/pcow.json" || fail "pcow: not frame 0's rig"
+fi
+
 # the proposed rig is a rig: train reads and uses it, and the model beats the nearest frame
 expect_status 0 "$ms" train "${H[@]}" --rig "$dir/horse.json" --frames 0:24:2 -o "$dir/horse.msm"
 expect_status 0 "$ms" eval --model "$dir/horse.msm" "${H[@]}" --frames 1:24:2 --json

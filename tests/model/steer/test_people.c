@@ -35,8 +35,8 @@ static void run(const char *name, const char *pc2, const char *rest, const char 
             memcpy(V + (size_t)k * s->nv * 3, s->V + (size_t)10 * k * s->nv * 3,
                    (size_t)s->nv * 3 * sizeof *V);
         const float up[3] = {0, 1, 0};
-        ASSERT_OK(mdl_rig_propose_frames(V, s->nv, nk, s->F, s->nf, up, MDL_BODY_HUMAN, &rig,
-                                         NULL, &used, err),
+        ASSERT_OK(mdl_rig_propose_frames(V, s->nv, nk, NULL, s->F, s->nf, up, MDL_BODY_HUMAN,
+                                         &rig, NULL, &used, err),
                   err);
         ASSERT_INT_EQ(used, nk);
         free(V);

@@ -168,9 +168,9 @@ static void run(const seqcase *c, int step, double *worst_frac)
     /* B's frame 0 is the measuring frame only; its proposal votes too, so drop it: B + nv*3 */
     mdl_rig *ra, *rb;
     int ua, ub;
-    ASSERT_OK(mdl_rig_propose_frames(A, s->nv, na, s->F, s->nf, up, MDL_BODY_AUTO, &ra, NULL, &ua,
-                                     err), err);
-    ASSERT_OK(mdl_rig_propose_frames(B + (size_t)s->nv * 3, s->nv, nb, s->F, s->nf, up,
+    ASSERT_OK(mdl_rig_propose_frames(A, s->nv, na, NULL, s->F, s->nf, up, MDL_BODY_AUTO, &ra,
+                                     NULL, &ua, err), err);
+    ASSERT_OK(mdl_rig_propose_frames(B + (size_t)s->nv * 3, s->nv, nb, NULL, s->F, s->nf, up,
                                      MDL_BODY_AUTO, &rb, NULL, &ub, err), err);
     ASSERT_INT_EQ(ra->nmarkers, nm);
     ASSERT_INT_EQ(rb->nmarkers, nm);
