@@ -39,9 +39,9 @@
  * towards the camera in tests/drivers/test_markers.c's depth-data-1399145206 was inferred without
  * that guard). Of the valid hand reports over samba and pjump at 2.5 m, yaw -35..35,
  * those nearer than 0.75 m were within 10 cm of their hand in 12 of 136 (3,181 reports not from
- * arm loops); with the rule the valid-but-wrong hands fell in 37 of the grid's 40 cells and held
- * in three (samba at -35 degrees, 3.5 m 0.34 -> 0.21; pjump at 2.0 m, +20 degrees 0.25 -> 0.12),
- * on the SMPL takes too (walk 0.53 -> 0.30, lambada 0.20 -> 0.05), hands within 10 cm did not
+ * arm loops); with the rule the valid-but-wrong hands fell in 37 of the grid's 40 cells (samba at
+ * -35 degrees, 3.5 m 0.34 -> 0.21; pjump at 2.0 m, +20 degrees 0.25 -> 0.12) and held in three,
+ * fell on the SMPL takes too (walk 0.53 -> 0.30, lambada 0.20 -> 0.05), hands within 10 cm did not
  * move and side_correct fell by at most 0.015 (pjump facing at 2.0 m; at 2.5 m 0.961 -> 0.955).
  * A hand from an arm loop (segment.c) is a point on the visible surface a hand's length past where
  * the forearm meets the hip in the image; where the hand really is follows from the forearm's depth
