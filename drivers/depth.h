@@ -129,9 +129,11 @@ typedef struct drv_depth_result {
                                          so that no consumer takes a guess for a measurement;
                                          lhand and rhand (lfoot, rfoot) may then both be set */
     uint8_t inferred[DRV_DEPTH_NLABELS]; /* 1: a hand not seen (markers.c): its arm disappears
-                                         behind a nearer surface at or above the elbow, or the
-                                         point labelled is not reached through an arm; xyz is a
-                                         guess, not a measurement, and valid is 0 */
+                                         behind a nearer surface at or above the elbow, the
+                                         point labelled is not reached through an arm, or it is
+                                         nearer the centroid than a shoulder and an upper arm
+                                         (a person seen down to the floor); xyz is a guess, not
+                                         a measurement, and valid is 0 */
     float conf[DRV_DEPTH_NLABELS];    /* 0..1 */
     int nextrema;                     /* accumulative geodesic extrema found, followed by the hands
                                          estimated from arm loops (geodesic 0), up to the max */
