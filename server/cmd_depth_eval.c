@@ -7,7 +7,11 @@
  * frame by default, since a dancer travelling 1.8 m towards the camera (samba) would leave the
  * Kinect's 43 degree vertical field of view; --travel keeps that travel, centred on DISTANCE -
  * facing it: the facing direction is (L - R) x up with L, R the means of the rig's left and right
- * hand/foot markers in the first frame; then the person is turned by YAW degrees.
+ * hand/foot markers in the first frame; then the person is turned by YAW degrees. A performer who
+ * turns on her own is seen from other angles than YAW in later frames (samba turns by 40 degrees
+ * towards her last frames: her -20 degree row reaches -60); --hold-facing turns each frame back by
+ * its torso's own turn (torso_turns, smooth_turns), so that YAW is the torso's angle to the camera
+ * in every frame. Either way the report gives the range of that own turn.
  * Scores: within_10cm[kind] = the fraction of ground-truth extremities of that kind (head; lhand,
  * rhand; lfoot, rfoot) inside the image (out_of_view counts the others) with an extracted marker of
  * the same kind (either side; found, whether its side is certain or not) within 10 cm;
@@ -42,13 +46,26 @@ static const char *CMD = "depth-eval";
 
 #define MAX_PLACEMENTS 16 /* values per list of --yaw and --distance */
 #define HIDDEN_BEHIND 0.08f /* metres: a hand this far behind the surface its pixel shows */
+/* The trunk band whose turn is the torso's: from the hip joint (0.530 of the standing height) to
+ * the chest (0.720), Drillis & Contini's segment proportions, as a fraction of the first frame's
+ * height above its lowest vertex. */
+#define TRUNK_FROM 0.53
+#define TRUNK_TO 0.72
+/* metres: the residual of the trunk fit at which a vertex's weight halves (an arm or a skirt
+ * crossing the band moves by more than this against the trunk) */
+#define TRUNK_RESIDUAL 0.03
+/* seconds: the torso's turn is averaged over this window, centred on the frame, before it is
+ * undone - one gait cycle (a stride, ~1.0-1.1 s at a walk, Inman et al.), so that the pelvis'
+ * swing with every stride (+-16 degrees on the SMPL run) and a dancer's hip sway stay in the
+ * image and only the performer's slower turns (samba's 40 degrees) are undone */
+#define TURN_WINDOW 1.0
 
 static void help(void)
 {
     printf("usage: meshsteer depth-eval --mesh PATH [--rest REST.obj] --rig RIG.json [--frames SPEC]\n"
            "                            [--distance M[,M..]] [--yaw DEG[,DEG..]] [--fps F] [--step N]\n"
-           "                            [--no-smooth] [--travel] [--per-frame] [--dump-depth FILE]\n"
-           "                            [--json]\n\n"
+           "                            [--no-smooth] [--travel] [--hold-facing] [--per-frame]\n"
+           "                            [--dump-depth FILE] [--json]\n\n"
            "Renders the mesh sequence as Kinect v1 depth (the test camera), extracts head, hand and\n"
            "foot markers from every frame and scores them against the rig markers named head,\n"
            "lhand, rhand, lfoot, rfoot.\n\n"
@@ -59,13 +76,16 @@ static void help(void)
            "  --distance M     metres from the camera to the person (default 2.5); a comma-separated\n"
            "                   list (up to %d) scores each distance in turn\n"
            "  --yaw DEG        turn the person away from facing the camera (default 0); a list as\n"
-           "                   for --distance: every yaw at every distance (the grid)\n"
+           "                   for --distance: every yaw at every distance (the grid). It turns\n"
+           "                   the first frame; the performer's own turns add to it\n"
            "  --fps F          frame rate when the file has none (default 30)\n"
            "  --step N         a fixed tracker grid of N-pixel cells (default: sized by the\n"
            "                   person's distance, 4 pixels at 2.5 m)\n"
            "  --no-smooth      score the unfiltered markers\n"
            "  --travel         keep the performer's travel towards/away from the camera (default:\n"
            "                   each frame's centroid is held at --distance; sideways travel is kept)\n"
+           "  --hold-facing    undo the performer's own turns (the torso's turn, averaged over 1 s):\n"
+           "                   every frame's torso is at --yaw to the camera\n"
            "  --per-frame      print one line per frame: each ground-truth marker's error to the\n"
            "                   same-label extracted marker (cm, '-' = none, '?' after it = side\n"
            "                   uncertain, '~' = inferred, 'o' = out of view, 'h' = hidden behind\n"
@@ -123,7 +143,7 @@ typedef struct de_args {
     const char *mesh, *rest, *rig, *frames, *dump;
     double distance[MAX_PLACEMENTS], yaw_deg[MAX_PLACEMENTS], fps;
     int ndistance, nyaw;
-    int json, smooth, step, travel, per_frame;
+    int json, smooth, step, travel, hold, per_frame;
 } de_args;
 
 /* A comma-separated list of numbers of option opt into v (at most MAX_PLACEMENTS); returns 0 or
@@ -165,6 +185,8 @@ static int parse_args(int argc, char **argv, de_args *o)
             o->smooth = 0;
         } else if (!strcmp(a, "--travel")) {
             o->travel = 1;
+        } else if (!strcmp(a, "--hold-facing")) {
+            o->hold = 1;
         } else if (!strcmp(a, "--per-frame")) {
             o->per_frame = 1;
         } else if (!v) {
@@ -284,11 +306,114 @@ static int place_scene(const mdl_meshseq *seq, const int *idx, int nidx, const i
     return 0;
 }
 
-/* Places frame Vf into the scene (into V, nv x 3) and, unless the travel is kept, holds its
- * centroid at the distance (sideways travel stays). */
-static void place_frame(const de_scene *sc, const float *Vf, int nv, int travel, float *V)
+/* The torso's turn about the vertical from the first selected frame to each (turn[k], radians, in
+ * drv_render_place's sense): the rotation, in the horizontal plane, that best carries the trunk
+ * band's vertices (TRUNK_FROM .. TRUNK_TO of the first frame's height) from the first frame onto
+ * frame k, each centred on its weighted mean (Procrustes: the angle of sum w (q x p, q . p)).
+ * Three rounds, each vertex weighted 1 / (1 + (r / TRUNK_RESIDUAL)^2) by its residual r in the
+ * last, so that an arm or a skirt crossing the band follows the trunk rather than turning it.
+ * Returns 0, or -1 when out of memory. */
+static int torso_turns(const mdl_meshseq *seq, const int *idx, int nidx, float *turn)
 {
-    drv_render_place(Vf, nv, sc->yaw, (float)sc->px, (float)sc->pz, sc->t, V);
+    const int nv = seq->nv;
+    const float *A = seq->V + (size_t)idx[0] * nv * 3;
+    float lo = INFINITY, hi = -INFINITY;
+    for (int i = 0; i < nv; i++) {
+        lo = fminf(lo, A[3 * i + 1]);
+        hi = fmaxf(hi, A[3 * i + 1]);
+    }
+    int *band = malloc((size_t)nv * sizeof *band), nb = 0;
+    double *w = malloc((size_t)nv * sizeof *w);
+    if (!band || !w) {
+        free(band);
+        free(w);
+        return -1;
+    }
+    for (int i = 0; i < nv; i++) {
+        double h = (A[3 * i + 1] - lo) / (hi - lo);
+        if (h >= TRUNK_FROM && h <= TRUNK_TO)
+            band[nb++] = i;
+    }
+    for (int k = 0; k < nidx; k++) {
+        const float *B = seq->V + (size_t)idx[k] * nv * 3;
+        double th = 0;
+        for (int j = 0; j < nb; j++)
+            w[j] = 1;
+        for (int round = 0; round < 3 && nb > 0; round++) {
+            double sw = 0, a[2] = {0, 0}, b[2] = {0, 0};
+            for (int j = 0; j < nb; j++) {
+                const float *p = A + 3 * band[j], *q = B + 3 * band[j];
+                sw += w[j];
+                a[0] += w[j] * p[0], a[1] += w[j] * p[2];
+                b[0] += w[j] * q[0], b[1] += w[j] * q[2];
+            }
+            a[0] /= sw, a[1] /= sw, b[0] /= sw, b[1] /= sw;
+            double sn = 0, cs = 0;
+            for (int j = 0; j < nb; j++) {
+                double px = A[3 * band[j]] - a[0], pz = A[3 * band[j] + 2] - a[1];
+                double qx = B[3 * band[j]] - b[0], qz = B[3 * band[j] + 2] - b[1];
+                sn += w[j] * (qx * pz - qz * px);
+                cs += w[j] * (qx * px + qz * pz);
+            }
+            th = atan2(sn, cs);
+            double c = cos(th), s = sin(th);
+            for (int j = 0; j < nb; j++) {
+                double px = A[3 * band[j]] - a[0], pz = A[3 * band[j] + 2] - a[1];
+                double qx = B[3 * band[j]] - b[0], qz = B[3 * band[j] + 2] - b[1];
+                double rx = c * px + s * pz - qx, rz = -s * px + c * pz - qz;
+                double r = sqrt(rx * rx + rz * rz) / TRUNK_RESIDUAL;
+                w[j] = 1 / (1 + r * r);
+            }
+        }
+        turn[k] = (float)th;
+    }
+    free(band);
+    free(w);
+    return 0;
+}
+
+/* Unwraps turn[] (nidx angles, radians, of frames idx[] at fps) into a continuous curve and
+ * replaces each by the mean over the frames within TURN_WINDOW / 2 of it. tmp: nidx floats. */
+static void smooth_turns(const int *idx, int nidx, double fps, float *turn, float *tmp)
+{
+    for (int k = 1; k < nidx; k++) {
+        while (turn[k] - turn[k - 1] > (float)M_PI)
+            turn[k] -= (float)(2 * M_PI);
+        while (turn[k] - turn[k - 1] < -(float)M_PI)
+            turn[k] += (float)(2 * M_PI);
+    }
+    const double half = TURN_WINDOW / 2 * fps; /* in frames of the sequence */
+    for (int k = 0, lo = 0, hi = 0; k < nidx; k++) {
+        while (idx[k] - idx[lo] > half)
+            lo++;
+        while (hi + 1 < nidx && idx[hi + 1] - idx[k] <= half)
+            hi++;
+        double sum = 0;
+        for (int j = lo; j <= hi; j++)
+            sum += turn[j];
+        tmp[k] = (float)(sum / (hi - lo + 1));
+    }
+    memcpy(turn, tmp, (size_t)nidx * sizeof *turn);
+}
+
+/* Places frame Vf into the scene (into V, nv x 3): first turned back by turn radians about its
+ * own centroid (the torso's own turn with --hold-facing, otherwise 0), then turned and moved as the scene says;
+ * unless the travel is kept, its centroid is held at the distance (sideways travel stays). */
+static void place_frame(const de_scene *sc, const float *Vf, int nv, float turn, int travel,
+                        float *V)
+{
+    if (turn != 0) {
+        double cx = 0, cz = 0;
+        for (int i = 0; i < nv; i++) {
+            cx += Vf[3 * i];
+            cz += Vf[3 * i + 2];
+        }
+        const float zero[3] = {0, 0, 0};
+        drv_render_place(Vf, nv, -turn, (float)(cx / nv), (float)(cz / nv), zero, V);
+        drv_render_place(V, nv, sc->yaw, (float)sc->px, (float)sc->pz, sc->t, V);
+    } else {
+        drv_render_place(Vf, nv, sc->yaw, (float)sc->px, (float)sc->pz, sc->t, V);
+    }
     if (travel)
         return;
     double sx = 0, sz = 0;
@@ -424,8 +549,13 @@ static void score_frame(de_scores *sc, const drv_depth_result *res, const drv_re
 /* Prints the summary of nidx frames at one placement: one JSON object, or a table row (with a
  * header before the first). Sorts sc's arrays. */
 static void print_report(const de_args *o, double distance, double yaw, de_scores *sc, int nidx,
-                         int first)
+                         const float *turn, int first)
 {
+    float tmin = INFINITY, tmax = -INFINITY; /* the performer's own turn, degrees */
+    for (int k = 0; k < nidx; k++) {
+        tmin = fminf(tmin, turn[k] * (float)(180 / M_PI));
+        tmax = fmaxf(tmax, turn[k] * (float)(180 / M_PI));
+    }
     double med, p99;
     cli_percentiles(sc->ms, nidx, &med, &p99);
     const char *kinds[3] = {"head", "hand", "foot"};
@@ -438,6 +568,9 @@ static void print_report(const de_args *o, double distance, double yaw, de_score
     }
     double side = ratio(sc->side_ok, sc->side_total);
     if (!o->json) {
+        if (first)
+            printf("the performer turns by %.0f .. %.0f degrees from the first frame: %s\n",
+                   tmin, tmax, o->hold ? "undone (--hold-facing)" : "kept, added to the yaw");
         if (first)
             printf("frames %d; within 10 cm per kind (ground truths in view), side: correct / "
                    "uncertain / confidently wrong; hands behind the body: found / inferred / "
@@ -455,8 +588,10 @@ static void print_report(const de_args *o, double distance, double yaw, de_score
                ratio(sc->confident_wrong[1], sc->confident[1]), med, p99);
         return;
     }
-    printf("{\"frames\": %d, \"distance\": %.3f, \"yaw\": %.3f, \"travel\": %s, \"within_10cm\": {",
-           nidx, distance, yaw, o->travel ? "true" : "false");
+    printf("{\"frames\": %d, \"distance\": %.3f, \"yaw\": %.3f, \"travel\": %s, "
+           "\"hold_facing\": %s, \"own_turn_deg\": [%.1f, %.1f], \"within_10cm\": {",
+           nidx, distance, yaw, o->travel ? "true" : "false", o->hold ? "true" : "false", tmin,
+           tmax);
     for (int k = 0; k < 3; k++)
         jnum(kinds[k], rate[k], k < 2);
     printf("}, \"in_view\": {\"head\": %d, \"hand\": %d, \"foot\": %d}, ", sc->total[0],
@@ -498,6 +633,7 @@ typedef struct de_run {
     const mdl_meshseq *seq;
     const int *idx;
     int nidx, gv[5];
+    float *turn; /* per selected frame: the torso's own turn (radians), undone by --hold-facing */
     double fps;
     drv_render *ren;
     drv_render_opts ro;
@@ -526,7 +662,8 @@ static int run_placement(de_run *r, double distance, double yaw, de_scores *sc, 
     const size_t npix = (size_t)r->ro.k.width * r->ro.k.height;
     *sc = (de_scores){.ms = sc->ms, .errs = {sc->errs[0], sc->errs[1], sc->errs[2]}}; /* counts 0 */
     for (int k = 0; k < r->nidx; k++) {
-        place_frame(&scene, r->seq->V + (size_t)r->idx[k] * nv * 3, nv, r->o->travel, r->V);
+        place_frame(&scene, r->seq->V + (size_t)r->idx[k] * nv * 3, nv, r->o->hold ? r->turn[k] : 0,
+                    r->o->travel, r->V);
         if (drv_render_frame(r->ren, r->V, nv, r->seq->F, r->seq->nf, r->depth, derr)) {
             status = cli_fail(CMD, CLI_EXIT_FAIL, "frame %d: %s", r->idx[k], derr);
             break;
@@ -547,7 +684,7 @@ static int run_placement(de_run *r, double distance, double yaw, de_scores *sc, 
     }
     drv_depth_tracker_destroy(trk);
     if (!status)
-        print_report(r->o, distance, yaw, sc, r->nidx, first);
+        print_report(r->o, distance, yaw, sc, r->nidx, r->turn, first);
     return status;
 }
 
@@ -599,13 +736,16 @@ int cmd_depth_eval(int argc, char **argv)
     const size_t npix = (size_t)r.ro.k.width * r.ro.k.height;
     r.V = malloc((size_t)nv * 3 * sizeof *r.V);
     r.depth = malloc(npix * sizeof *r.depth);
+    r.turn = calloc((size_t)r.nidx * 2, sizeof *r.turn); /* and room for smooth_turns */
     sc.ms = malloc((size_t)r.nidx * sizeof *sc.ms);
     for (int k = 0; k < 3; k++)
         sc.errs[k] = malloc((size_t)r.nidx * 2 * sizeof *sc.errs[k]);
-    if (!r.V || !r.depth || !sc.ms || !sc.errs[0] || !sc.errs[1] || !sc.errs[2]) {
+    if (!r.V || !r.depth || !r.turn || !sc.ms || !sc.errs[0] || !sc.errs[1] || !sc.errs[2] ||
+        torso_turns(seq, idx, r.nidx, r.turn)) {
         status = cli_fail(CMD, CLI_EXIT_FAIL, "out of memory");
         goto done;
     }
+    smooth_turns(idx, r.nidx, r.fps, r.turn, r.turn + r.nidx);
     if (o.dump && !(r.dumpf = fopen(o.dump, "wb"))) {
         status = cli_fail(CMD, CLI_EXIT_FAIL, "%s: %s", o.dump, strerror(errno));
         goto done;
@@ -621,6 +761,7 @@ done:
         free(sc.errs[k]);
     free(sc.ms);
     free(r.depth);
+    free(r.turn);
     free(r.V);
     drv_render_destroy(r.ren);
     free(idx);
