@@ -154,6 +154,8 @@ int drv__body_frame_update(drv__body_frame *bf, const drv__grid *g, const float 
 typedef struct drv__label_prev {
     float p[5][3];     /* head, lhand, rhand, lfoot, rfoot, as last output */
     uint8_t valid[5];
+    float elbow_reach0; /* metres from the centroid: a hand nearer is an elbow (markers.c; 0 for
+                           a person not seen down to the floor) */
     float head_len;    /* the person's centroid-to-head-top geodesic, measured on earlier frames
                           with the head in full view (markers.c); 0 = not yet measured */
 } drv__label_prev;

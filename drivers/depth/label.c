@@ -17,6 +17,12 @@
  *          side of the mid-plane, path_lmax: an arm's passes its shoulder; without it the neck,
  *          with the head out of view or raised arms cut by the image's top edge, looked like a
  *          fine hand: near the mid-line, far from the centroid)
+ *          + max(0, E - g0)/0.1 (g0: the geodesic from the centroid; E = 0.75 m, a shoulder and
+ *          an upper arm, when the person is seen down to the floor, else 0: the bound under which
+ *          markers.c reports a hand inferred. Without it a label that had slid onto a point of
+ *          the hip kept it by the temporal term, reported inferred, while the hand's own extremum
+ *          stayed unlabelled: pjump held at the default placement, frames 41-54, hands 0.856 ->
+ *          0.924; the SMPL takes' hands 0.30-0.62 -> 0.39-0.89, docs/PERFORMANCE.md)
  *   foot : max(0, -s l_a)/0.04 + max(0, h + 0.75)/0.1 + max(0, 0.7 - g)/0.1 + max(0, m - 0.15)/0.1
  *          (h < -0.55, not on the border)
  *   An extremum touching the image border is a cut through the body, not an extremity: it can
@@ -188,7 +194,8 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
             s.cost[1 + side][e] = pos(-sg * la) / 0.04f + pos(-0.6f - h) / 0.1f +
                                   pos(HAND_REACH - g) / 0.1f +
                                   (h < ARM_LOW ? pos(ARM_CLIMB - x->path_hmax) / 0.1f : 0.f) +
-                                  pos(ARM_SIDE - x->path_lmax) / 0.04f + b;
+                                  pos(ARM_SIDE - x->path_lmax) / 0.04f + b +
+                                  (prev ? pos(prev->elbow_reach0 - x->geodesic0) / 0.1f : 0.f);
             s.cost[3 + side][e] = h < -0.55f && x->border != 1
                                       ? pos(-sg * la) / 0.04f + pos(h + 0.75f) / 0.1f +
                                             pos(0.7f - g) / 0.1f +

@@ -78,7 +78,8 @@
 #define ARM_REACH 0.70f
 /* The geodesic from the centroid to a shoulder (label.c HAND_REACH): a hand reached through its
  * arm lies at least this and an upper arm (ELBOW_REACH) from the centroid; nearer, the extremum is
- * an elbow or a shoulder, or a hand brought against the body, and is reported inferred. */
+ * an elbow or a shoulder, or a hand brought against the body, and is reported inferred; label.c
+ * costs a hand candidate that falls short of the same bound by what it lacks (elbow_reach0). */
 #define SHOULDER_GEODESIC 0.45f
 /* metres above the floor: a person seen this low is seen down to the shins, and the centroid of
  * what is in view is the whole body's within a few cm (the feet and lower shins are ~3 % of the
@@ -339,6 +340,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
         whole_body = r->floor[0] * P[0] + r->floor[1] * P[1] + r->floor[2] * P[2] + r->floor[3] <
                      FEET_IN_VIEW;
     }
+    prev.elbow_reach0 = whole_body ? SHOULDER_GEODESIC + ELBOW_REACH : 0.f;
     int label[5];
     float conf[5];
     uint8_t side_sure[5];

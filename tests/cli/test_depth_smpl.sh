@@ -105,16 +105,22 @@ check() {
 # by the image's top edge, was labelled a hand). Then (markers.c: an arm loop's hand before the
 # body when its forearm comes towards the camera) run's hands 0.186 -> 0.304, side 0.554 ->
 # 0.613; the others as before.
+# 2026-12-03, fourth session (label.c: a hand nearer the centroid than a shoulder and an upper arm
+# costs what it lacks, so a label does not stay on a point of the hip while the hand's own
+# extremum goes unlabelled): hands hop 0.304 -> 0.386, walk 0.348 -> 0.488, run 0.304 -> 0.402,
+# lambada 0.622 -> 0.892 and at -20 degrees 0.852 -> 0.970; side 0.482 -> 0.522, 0.582 -> 0.627,
+# 0.613 -> 0.662, 0.780 -> 0.890 and 0.846 -> 0.890; heads, feet and side_wrong as before.
 #     take head hand foot side side_wrong [yaw]
-check hop  0.91 0.28 0.76 0.45 0.09
-check walk 0.95 0.32 0.82 0.55 0.03
-check run  0.95 0.27 0.89 0.58 0.03
-check lambada 0.96 0.59 0.93 0.75 0.03
-check lambada 0.81 0.82 0.86 0.81 0.03 -20
+check hop  0.91 0.35 0.76 0.49 0.09
+check walk 0.95 0.45 0.82 0.59 0.03
+check run  0.95 0.37 0.89 0.63 0.03
+check lambada 0.96 0.86 0.93 0.86 0.03
+check lambada 0.81 0.94 0.86 0.86 0.03 -20
 # valid hand reports with no hand within 10 cm: the hands nearer the centroid than a shoulder and
 # an upper arm are reported inferred (markers.c): walk 0.53 -> 0.30, lambada 0.20 -> 0.05, lambada
-# at -20 degrees 0.17 -> 0.09 (2026-12-03). Bounds 0.03 over.
-for tw in walk@0:0.33 lambada@0:0.08 lambada@-20:0.12; do
+# at -20 degrees 0.17 -> 0.09 (2026-12-03). Bounds 0.03 over. Then (the elbow's cost, above) walk
+# 0.27, lambada 0.04, lambada at -20 degrees 0.10.
+for tw in walk@0:0.30 lambada@0:0.07 lambada@-20:0.12; do
     t=${tw%:*} want=${tw##*:}
     grep -o '"confident_wrong": {[^}]*}' "$dir/$t.json" >"$dir/cw.json" || fail "$t: no confident_wrong"
     v=$(json_num "$dir/cw.json" hand)
