@@ -397,8 +397,9 @@ static void smooth_turns(const int *idx, int nidx, double fps, float *turn, floa
 }
 
 /* Places frame Vf into the scene (into V, nv x 3): first turned back by turn radians about its
- * own centroid (the torso's own turn with --hold-facing, otherwise 0), then turned and moved as the scene says;
- * unless the travel is kept, its centroid is held at the distance (sideways travel stays). */
+ * own centroid (the torso's own turn with --hold-facing, otherwise 0), then turned and moved as
+ * the scene says; unless the travel is kept, its centroid is held at the distance (sideways
+ * travel stays). */
 static void place_frame(const de_scene *sc, const float *Vf, int nv, float turn, int travel,
                         float *V)
 {
@@ -662,8 +663,8 @@ static int run_placement(de_run *r, double distance, double yaw, de_scores *sc, 
     const size_t npix = (size_t)r->ro.k.width * r->ro.k.height;
     *sc = (de_scores){.ms = sc->ms, .errs = {sc->errs[0], sc->errs[1], sc->errs[2]}}; /* counts 0 */
     for (int k = 0; k < r->nidx; k++) {
-        place_frame(&scene, r->seq->V + (size_t)r->idx[k] * nv * 3, nv, r->o->hold ? r->turn[k] : 0,
-                    r->o->travel, r->V);
+        const float turn = r->o->hold ? r->turn[k] : 0.f;
+        place_frame(&scene, r->seq->V + (size_t)r->idx[k] * nv * 3, nv, turn, r->o->travel, r->V);
         if (drv_render_frame(r->ren, r->V, nv, r->seq->F, r->seq->nf, r->depth, derr)) {
             status = cli_fail(CMD, CLI_EXIT_FAIL, "frame %d: %s", r->idx[k], derr);
             break;
