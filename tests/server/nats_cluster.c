@@ -71,17 +71,24 @@ const char *nats_server_path(void)
     return access(p, X_OK) == 0 ? p : NULL;
 }
 
-int nats_free_port(void)
+void nats_free_ports(int *ports, int k)
 {
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    struct sockaddr_in sa = {.sin_family = AF_INET};
-    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof sa;
-    ASSERT(fd >= 0);
-    ASSERT_INT_EQ(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
-    ASSERT_INT_EQ(getsockname(fd, (struct sockaddr *)&sa, &len), 0);
-    close(fd);
-    return ntohs(sa.sin_port);
+    /* every socket stays bound until all k are chosen: a port released and asked for again can
+     * come back (CI once gave node 1's websocket the port of node 2's cluster listener) */
+    int fds[4 * NATS_NODES_MAX];
+    ASSERT(k >= 1 && k <= (int)(sizeof fds / sizeof fds[0]));
+    for (int i = 0; i < k; i++) {
+        struct sockaddr_in sa = {.sin_family = AF_INET};
+        sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        socklen_t len = sizeof sa;
+        fds[i] = socket(AF_INET, SOCK_STREAM, 0);
+        ASSERT(fds[i] >= 0);
+        ASSERT_INT_EQ(bind(fds[i], (struct sockaddr *)&sa, sizeof sa), 0);
+        ASSERT_INT_EQ(getsockname(fds[i], (struct sockaddr *)&sa, &len), 0);
+        ports[i] = ntohs(sa.sin_port);
+    }
+    for (int i = 0; i < k; i++)
+        close(fds[i]);
 }
 
 static int port_open(int port)
@@ -167,12 +174,14 @@ void nats_cluster_start(nats_cluster *c, int n, const char *dir)
     memset(c, 0, sizeof *c);
     c->n = n;
     snprintf(c->dir, sizeof c->dir, "%s", dir);
+    int ports[4 * NATS_NODES_MAX];
+    nats_free_ports(ports, 4 * n);
     for (int i = 0; i < n; i++) {
         nats_node *nd = &c->node[i];
-        nd->port = nats_free_port();
-        nd->ws_port = nats_free_port();
-        nd->http_port = nats_free_port();
-        nd->cluster_port = nats_free_port();
+        nd->port = ports[4 * i];
+        nd->ws_port = ports[4 * i + 1];
+        nd->http_port = ports[4 * i + 2];
+        nd->cluster_port = ports[4 * i + 3];
         snprintf(nd->url, sizeof nd->url, "nats://127.0.0.1:%d", nd->port);
         snprintf(nd->log, sizeof nd->log, "%s/node%d.log", dir, i + 1);
     }

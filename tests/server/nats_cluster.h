@@ -38,7 +38,8 @@ void nats_cluster_stop(nats_cluster *c);
 void nats_cluster_adopt(pid_t pid);
 /* Forget pid (it was reaped). */
 void nats_cluster_disown(pid_t pid);
-/* A free loopback TCP port (bound and released: good enough between cooperating tests). */
-int nats_free_port(void);
+/* k distinct free loopback TCP ports: all bound at once, then released (so distinct from one
+ * another; good enough against other cooperating tests). */
+void nats_free_ports(int *ports, int k);
 
 #endif
