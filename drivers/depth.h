@@ -101,10 +101,12 @@ typedef struct drv_depth_opts {
     float min_extent;      /* metres: stop adding extrema once the farthest is this close */
     float tip_radius;      /* metres: a marker is the mean of the cells this close (geodesically)
                               to its extremum */
-    float head_offset;     /* metres: the head marker is pushed this far back along the viewing
-                              ray, from the visible surface to the head's mid-plane (the top of
-                              the head lies there; cf. Shotton et al. 2011, Sec. 3.3, who push
-                              surface proposals back by a learned 39 mm) */
+    float head_offset;     /* metres: when the head's silhouette is not its own (an arm in
+                              front of it; head_axis.c places it otherwise), the head marker is
+                              pushed this far back along the viewing ray, from the visible
+                              surface to the head's mid-plane (the top of the head lies there;
+                              cf. Shotton et al. 2011, Sec. 3.3, who push surface proposals back
+                              by a learned 39 mm) */
     int smooth;            /* 1: One Euro filter on the output */
     double oe_min_cutoff;  /* One Euro: minimum cutoff frequency (Hz) */
     double oe_beta;        /* One Euro: speed coefficient (s/m) */

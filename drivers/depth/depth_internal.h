@@ -132,6 +132,12 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
                           int source, const float up[3], const float right[3], drv__extremum *ex,
                           int max);
 
+/* The top of the head found at extremum x, on the head's axis, from its silhouette in g
+ * (head_axis.c). Returns 0, p untouched, when no grid row across the head is two cells wide or an
+ * occluder hides part of its silhouette. */
+int drv__head_on_axis(const drv__grid *g, const drv__geodesic *ge, const drv_depth_opts *o,
+                      const drv__extremum *x, float p[3]);
+
 /* The geodesic graph's max_jump for a person at depth z (markers.c): at least MAX_JUMP_STEPS of
  * the sensor's depth steps there. */
 float drv__depth_max_jump(const drv_depth_opts *o, float z);

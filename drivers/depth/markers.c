@@ -14,7 +14,9 @@
  * that a head cut a little short by the image's top edge is still found (label.c); such a head is
  * placed on the middle of the cut (the head's axis; the extremum is wherever the cut's farthest
  * cell happens to be, 12-26 cm to the side in 19 of 48 such heads on pjump) and raised by the
- * length missing above the image (head_above_cut). The torso marker is the person's centroid. A
+ * length missing above the image (head_above_cut). A head in full view is placed at its top on its
+ * axis, found from its silhouette (head_axis.c), or, when an arm in front of it hides part of that,
+ * half a head (head_offset) behind its visible top. The torso marker is the person's centroid. A
  * hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is placed at the
  * estimated hidden end. That estimate carries the limb on by a hand's length, which is right when
  * only the hand is hidden (samba's hands on the far hip, the forearm in view), and a guess when the
@@ -372,7 +374,10 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
             }
             if (l == DRV_DEPTH_HEAD && t->ex[label[l]].top_cut && t->head_len > 0)
                 head_above_cut(t, &t->ex[label[l]], up, p);
-            if (l == DRV_DEPTH_HEAD) {
+            if (l == DRV_DEPTH_HEAD && !t->ex[label[l]].top_cut &&
+                drv__head_on_axis(g, &t->ge, &t->o, &t->ex[label[l]], p)) {
+                /* the top of the head on its axis, from its silhouette (head_axis.c) */
+            } else if (l == DRV_DEPTH_HEAD) { /* no silhouette to go by: half a head behind */
                 float n = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
                 for (int a = 0; a < 3 && n > 0; a++)
                     p[a] *= 1.f + t->o.head_offset / n;

@@ -50,13 +50,15 @@ check() {
 # measured now 0.80 / 0.78 / 0.78 and 0.95. pjump's hands at -20 degrees, held before the belly
 # and found from arm loops: 0.83 -> 0.86 once such a hand is placed at its forearm's depth
 # rather than behind the hip (markers.c). pjump's at +20 degrees 0.859 -> 0.885 (side 0.931 ->
-# 0.943) once a hand short of the elbow costs what it lacks (label.c).
+# 0.943) once a hand short of the elbow costs what it lacks (label.c). pjump's heads 0.797 / 0.781
+# / 0.785 -> 0.875 / 0.812 / 0.831 once a head in full view is placed on its axis from its
+# silhouette rather than half a head behind its visible top (head_axis.c; 2026-12-03).
 #      seq   yaw frames  head hand foot side  side_wrong [distance]
 check samba 0   :       0.95 0.9  0.9  0.9   0.02
-check pjump 0   :       0.77 0.9  0.95 0.94  0.02
+check pjump 0   :       0.84 0.9  0.95 0.94  0.02
 check samba 20  :       0.95 0.95 0.8  0.9   0.02
-check pjump 20  :       0.75 0.85 0.95 0.91  0.02
-check pjump -20 :       0.75 0.85 0.95 0.9   0.02
+check pjump 20  :       0.78 0.85 0.95 0.91  0.02
+check pjump -20 :       0.80 0.85 0.95 0.9   0.02
 check samba 0   :       0.9  0.9  -    0.9   0.02  2.0
 
 # samba turned -35 degrees: her right hand is behind her back in 59 frames. Where the visible arm
