@@ -39,8 +39,8 @@
 #define HEAD_REACH 0.2f
 /* metres below the top along the head's direction whose silhouette is used: down to the head's
  * widest part, about half its height (0.1 m), and a grid cell more (0.017 m at 2.5 m). Measured at
- * 0.08-0.16 m over both grids: pjump's heads, mean of the 2.5-3.5 m cells at -20..+20 degrees,
- * peak here (docs/PERFORMANCE.md) */
+ * 0.08-0.16 m over both grids: pjump's heads, mean of the 2.0-3.5 m cells at -20..+20 degrees,
+ * peak here, 0.12-0.16 within 0.003 (docs/PERFORMANCE.md) */
 #define HEAD_SPAN 0.12f
 
 static int head_cell(const drv__grid *g, const drv__geodesic *ge, const drv__extremum *x, int c)
