@@ -229,11 +229,13 @@ static size_t finish(char *buf, cJSON *o, const srv_control *c)
     return n;
 }
 
-size_t srv_reply_ack(char *buf, const srv_control *c)
+size_t srv_reply_ack(char *buf, const srv_control *c, int64_t seq)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "type", "ack");
     cJSON_AddStringToObject(o, "request", c->type ? c->type : "");
+    if (seq >= 0)
+        cJSON_AddNumberToObject(o, "seq", (double)seq);
     return finish(buf, o, c);
 }
 

@@ -62,8 +62,9 @@ extern const int srv_source_controls[SRV_SOURCE_CONTROLS];
 /* The names of the SRV_CTL_BIT()s in `bits`, in that order, comma separated ("" for none). */
 void srv_controls_text(unsigned bits, char *buf, size_t len);
 
-/* Reply texts into buf (SRV_REPLY_LEN); return the length. */
-size_t srv_reply_ack(char *buf, const srv_control *c);
+/* Reply texts into buf (SRV_REPLY_LEN); return the length. An ack of a source control carries
+ * seq >= 0, the newest frame made before the control took effect (a negative seq: none). */
+size_t srv_reply_ack(char *buf, const srv_control *c, int64_t seq);
 size_t srv_reply_pong(char *buf, const srv_control *c, uint64_t server_us);
 size_t srv_reply_error(char *buf, const char *code, const char *message, const srv_control *c);
 

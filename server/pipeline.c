@@ -31,6 +31,16 @@ typedef struct ctl_entry {
     srv_control c;
 } ctl_entry;
 
+/* A control's reply on its way back. An ack waits until the frames made from markers the source
+ * read before the control have been published (`after`: the source frames written by then), so
+ * that it can name the newest of them (its "seq") and a client knows which frames follow it. */
+typedef struct ctl_pending {
+    srv_ctl_result r;
+    srv_control c;
+    uint64_t after;
+    int waiting;
+} ctl_pending;
+
 struct srv_pipeline {
     drv_source *src;
     srv_source_info si;            /* what other threads may read of the source */
@@ -59,6 +69,7 @@ struct srv_pipeline {
     pthread_cond_t slot_cond;
     slot slots[SLOT_COUNT];
     uint64_t written, taken; /* frames written / position up to which they were taken */
+    uint64_t settled; /* position up to which the taken frames are published: synthesis thread */
 
     /* publication: under pub */
     pthread_mutex_t pub;
@@ -71,7 +82,7 @@ struct srv_pipeline {
     pthread_mutex_t ctl_lock;
     ctl_entry ctl[SRV_CTL_QUEUE];
     int nctl;
-    srv_ctl_result res[SRV_CTL_QUEUE];
+    ctl_pending res[SRV_CTL_QUEUE];
     int res_head, nres;
 
     /* reload */
@@ -395,18 +406,64 @@ int srv_pipeline_create(drv_source *src, srv_source_info *si, srv_bundle *b, srv
 
 /* ------------------------------------------------------------------ the source thread */
 
-static void push_result(srv_pipeline *p, uint64_t tag, const char *reply, size_t len)
+/* Queues a reply: an error now, an ack (ack != NULL: the control) once the synthesis thread has
+ * settled the source frames written so far (settle_acks). The order of locks: ctl_lock, then
+ * slot_lock or pub; settle_acks takes them one after the other, so an ack queued as waiting is
+ * always seen by the settle_acks call that passes it. */
+static void push_result(srv_pipeline *p, uint64_t tag, const char *reply, size_t len,
+                        const srv_control *ack)
 {
     pthread_mutex_lock(&p->ctl_lock);
     if (p->nres < SRV_CTL_QUEUE) {
-        srv_ctl_result *r = &p->res[(p->res_head + p->nres) % SRV_CTL_QUEUE];
-        r->tag = tag;
-        r->len = len < SRV_REPLY_LEN ? len : SRV_REPLY_LEN - 1;
-        memcpy(r->reply, reply, r->len);
-        r->reply[r->len] = '\0';
+        ctl_pending *e = &p->res[(p->res_head + p->nres) % SRV_CTL_QUEUE];
+        e->r.tag = tag;
+        e->waiting = 0;
+        if (ack) {
+            e->c = *ack;
+            pthread_mutex_lock(&p->slot_lock);
+            e->after = p->written;
+            e->waiting = p->settled < e->after;
+            pthread_mutex_unlock(&p->slot_lock);
+            if (!e->waiting) { /* all out, and no newer frame before the source reads again */
+                pthread_mutex_lock(&p->pub);
+                uint64_t seq = p->seq;
+                pthread_mutex_unlock(&p->pub);
+                e->r.len = srv_reply_ack(e->r.reply, ack, (int64_t)seq);
+            }
+        } else {
+            e->r.len = len < SRV_REPLY_LEN ? len : SRV_REPLY_LEN - 1;
+            memcpy(e->r.reply, reply, e->r.len);
+            e->r.reply[e->r.len] = '\0';
+        }
         p->nres++;
     }
     pthread_mutex_unlock(&p->ctl_lock);
+}
+
+/* By the synthesis thread after it dealt with the source frames up to `upto` (take_slot's
+ * position): the acks waiting for frames up to there get their seq, the newest frame made from
+ * markers read before the control. That is seq_after (after this step's frame) when the step's
+ * markers were the last ones before the control, else seq_before (the step's markers came after
+ * it; the ones before were superseded and never synthesised). */
+static void settle_acks(srv_pipeline *p, uint64_t upto, uint64_t seq_before, uint64_t seq_after)
+{
+    pthread_mutex_lock(&p->slot_lock);
+    p->settled = upto;
+    pthread_mutex_unlock(&p->slot_lock);
+    int woke = 0;
+    pthread_mutex_lock(&p->ctl_lock);
+    for (int i = 0; i < p->nres; i++) {
+        ctl_pending *e = &p->res[(p->res_head + i) % SRV_CTL_QUEUE];
+        if (!e->waiting || e->after > upto)
+            continue;
+        e->r.len = srv_reply_ack(e->r.reply, &e->c, (int64_t)(e->after == upto ? seq_after
+                                                                                 : seq_before));
+        e->waiting = 0;
+        woke = 1;
+    }
+    pthread_mutex_unlock(&p->ctl_lock);
+    if (woke)
+        p->wake(p->wake_ud);
 }
 
 /* A control kind as the source takes it: its DRV_CTL_* bit and value. */
@@ -442,16 +499,16 @@ static void apply_controls(srv_pipeline *p)
                 atomic_store(&p->reset_synth, 1);
             if (ctl == DRV_CTL_PAUSE)
                 atomic_store(&p->paused, v != 0);
-            len = srv_reply_ack(reply, c);
             srv_metrics_count(&p->m->control_ok, 1);
             srv_log(SRV_LOG_INFO, "source control %s %g", srv_control_name(c->kind), v);
+            push_result(p, q[i].tag, NULL, 0, c);
         } else {
             len = srv_reply_error(reply, r == -ENOTSUP ? "unsupported" : "source_error", e, c);
             srv_metrics_count(&p->m->control_errors, 1);
             srv_log(SRV_LOG_INFO, "source control %s %g refused: %s", srv_control_name(c->kind), v,
                     e);
+            push_result(p, q[i].tag, reply, len, NULL);
         }
-        push_result(p, q[i].tag, reply, len);
     }
     if (n)
         p->wake(p->wake_ud);
@@ -651,9 +708,10 @@ static void publish(srv_pipeline *p, srv_bundle *b, const mdl_synth *s, uint64_t
 }
 
 /* Waits for a source frame newer than the last one taken, until deadline_us (CLOCK_MONOTONIC) or
- * stop, and copies it. Returns 1 with a frame, 0 without. */
+ * stop, and copies it. Returns 1 with a frame and *upto the count of source frames it covers (it
+ * supersedes those before it), 0 without. */
 static int take_slot(srv_pipeline *p, uint64_t deadline_us, float *xyz, uint8_t *valid,
-                     float *jrot, uint8_t *jvalid, uint64_t *t_capture)
+                     float *jrot, uint8_t *jvalid, uint64_t *t_capture, uint64_t *upto)
 {
     int count = p->si.count;
     pthread_mutex_lock(&p->slot_lock);
@@ -687,6 +745,7 @@ static int take_slot(srv_pipeline *p, uint64_t deadline_us, float *xyz, uint8_t 
     }
     *t_capture = sl->t_capture_us;
     p->taken = p->written;
+    *upto = p->taken;
     pthread_mutex_unlock(&p->slot_lock);
     if (skipped)
         srv_metrics_count(&p->m->drops[SRV_DROP_SYNTH_BUSY], skipped);
@@ -822,8 +881,9 @@ static void *synth_main(void *arg)
                             : NULL;
         int idle = !clocked && b->idle && why;
         uint64_t deadline = clocked || idle ? next_tick : now + 100000u;
-        uint64_t t_capture = 0;
-        int got = take_slot(p, deadline, xyz, valid, jrot, jvalid, &t_capture);
+        uint64_t t_capture = 0, upto = 0, seq_before = p->seq; /* seq: written by this thread */
+        int got = take_slot(p, deadline, xyz, valid, jrot, jvalid, &t_capture, &upto);
+        int from_source = got;
         if (atomic_load(&p->stop))
             break;
         int swapped = swap_pending(p);
@@ -848,9 +908,13 @@ static void *synth_main(void *arg)
                 } else if (!failed++) {
                     failing_since = now;
                 }
+                if (from_source)
+                    settle_acks(p, upto, seq_before, p->seq);
                 continue;
             }
         }
+        if (from_source) /* markers a clock-driven synthesis does not read */
+            settle_acks(p, upto, p->seq, p->seq);
         idle = !clocked && b->idle && why;
         if ((clocked || idle) && now >= next_tick) {
             uint64_t period = (uint64_t)(1e6 / b->clock_fps);
@@ -1036,8 +1100,8 @@ int srv_pipeline_result(srv_pipeline *p, srv_ctl_result *r)
 {
     int got = 0;
     pthread_mutex_lock(&p->ctl_lock);
-    if (p->nres > 0) {
-        *r = p->res[p->res_head];
+    if (p->nres > 0 && !p->res[p->res_head].waiting) { /* in order: none overtakes a waiting ack */
+        *r = p->res[p->res_head].r;
         p->res_head = (p->res_head + 1) % SRV_CTL_QUEUE;
         p->nres--;
         got = 1;

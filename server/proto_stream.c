@@ -171,7 +171,7 @@ static int handle_message(srv_daemon *d, srv_session *s)
     case SRV_CTL_ENCODING:
         s->encoding = c.encoding;
         srv_metrics_count(&d->metrics.control_ok, 1);
-        n = srv_reply_ack(buf, &c);
+        n = srv_reply_ack(buf, &c, -1);
         return queue_reply(s, buf, n);
     case SRV_CTL_PING:
         srv_metrics_count(&d->metrics.control_ok, 1);

@@ -39,7 +39,8 @@ const stats = {
   sourceFrames: 0,    // frames of the source (hello source.frames; 0 for a live one)
   paused: false, speed: 1, position: NaN, // the playback state as the viewer last set it
   acks: 0,            // control requests acknowledged
-  framesSinceAck: 0,  // frames received after the last ack
+  framesSinceAck: 0,  // frames received after the last ack that were made after its control
+  ackSeq: 0,          // the last ack's seq: the newest frame made before its control
   screenshots: 0, lastShotBytes: 0, clips: 0, lastClipBytes: 0, lastClipType: '',
   history: [],        // [fps, latency ms] every 0.5 s, the last 60 (the sparkline)
   shadows: false, grid: false, smoothGroups: 0,
@@ -337,6 +338,7 @@ function connect() {
   ws.binaryType = 'arraybuffer';
   ws.onopen = () => {
     opened('connected');
+    stats.ackSeq = 0; // a restarted daemon counts its frames from 1 again
     if (stats.encoding !== 'float32') send({ type: 'encoding', encoding: stats.encoding });
   };
   ws.onclose = () => {
@@ -396,7 +398,11 @@ function onText(msg) {
     if (pingBurst > 0 && --pingBurst > 0) ping();
   } else if (msg.type === 'ack') {
     stats.acks++;
-    stats.framesSinceAck = 0; // the server acks after it applied the control; frames follow in order
+    // a source control's ack names the newest frame made before the control took effect; those up
+    // to it may still follow the ack (they were published, not yet written), the rest are the
+    // control's
+    stats.framesSinceAck = 0;
+    stats.ackSeq = Number.isFinite(msg.seq) ? msg.seq : stats.lastSeq;
   } else if (msg.type === 'error') {
     stats.errors++;
     stats.lastError = `${msg.code}: ${msg.message}`;
@@ -438,7 +444,7 @@ function onBinary(buf) {
     if (pending) stats.dropped++; // replaced before it was drawn
     stats.lastSeq = h.seq;
     stats.lastCaptureUs = h.tCapture;
-    stats.framesSinceAck++;
+    if (h.seq > stats.ackSeq) stats.framesSinceAck++;
     // flags bit 0: reference lost (the body pose is kept), bit 2: held (missing markers replaced),
     // bit 3: idle (no one is tracked; the model's idle animation made the frame)
     stats.driver = h.flags & 8 ? 'idle' : h.flags & 1 ? 'reference lost' : h.flags & 4 ? 'tracked (held)' : 'tracked';

@@ -23,7 +23,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     char msg[256], buf[SRV_REPLY_LEN];
     size_t n;
     if (srv_control_parse((const char *)data, size, &c, &code, msg, sizeof msg) == 0)
-        n = srv_reply_ack(buf, &c);
+        n = srv_reply_ack(buf, &c, -1);
     else
         n = srv_reply_error(buf, code, msg, &c);
     check(buf, n);

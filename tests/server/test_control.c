@@ -71,12 +71,18 @@ int main(void)
 
     /* replies are valid JSON and echo the id */
     ASSERT_OK(parse("{\"type\":\"seek\",\"frame\":3,\"id\":\"q\\\"uote\"}", &c, &code, msg), msg);
-    size_t n = srv_reply_ack(buf, &c);
+    size_t n = srv_reply_ack(buf, &c, -1);
     cJSON *j = cJSON_ParseWithLength(buf, n);
     ASSERT(j);
     ASSERT(!strcmp(cJSON_GetObjectItem(j, "type")->valuestring, "ack"));
     ASSERT(!strcmp(cJSON_GetObjectItem(j, "request")->valuestring, "seek"));
     ASSERT(!strcmp(cJSON_GetObjectItem(j, "id")->valuestring, "q\"uote"));
+    ASSERT(!cJSON_GetObjectItem(j, "seq")); /* none asked for */
+    cJSON_Delete(j);
+    /* a source control's ack names the newest frame made before it */
+    n = srv_reply_ack(buf, &c, 4294967301LL);
+    j = cJSON_ParseWithLength(buf, n);
+    ASSERT(j && cJSON_GetObjectItem(j, "seq")->valuedouble == 4294967301.0);
     cJSON_Delete(j);
     n = srv_reply_pong(buf, &c, 123456789);
     j = cJSON_ParseWithLength(buf, n);

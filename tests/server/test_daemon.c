@@ -51,6 +51,7 @@
 #include <arpa/inet.h>
 #include <cjson/cJSON.h>
 #include <errno.h>
+#include <math.h>
 #include <libwebsockets.h>
 #include <netinet/in.h>
 #include <signal.h>
@@ -186,6 +187,20 @@ static void expect_reply(const wsc *c, const char *type, const char *code)
     cJSON_Delete(j);
 }
 
+/* The seq of the last reply, an ack of a source control (a whole number >= 0). */
+static uint64_t ack_seq_of(const wsc *c)
+{
+    cJSON *j = cJSON_Parse(last_text(c));
+    const cJSON *q = cJSON_GetObjectItem(j, "seq");
+    if (!cJSON_IsNumber(q) || q->valuedouble < 0 || q->valuedouble != floor(q->valuedouble)) {
+        fprintf(stderr, "expected an ack with a seq, got %s\n", last_text(c));
+        exit(1);
+    }
+    uint64_t seq = (uint64_t)q->valuedouble;
+    cJSON_Delete(j);
+    return seq;
+}
+
 static void send_and_expect(struct lws_context *ctx, wsc *c, const char *msg, const char *type,
                             const char *code)
 {
@@ -302,10 +317,21 @@ static void scenario_stream(void)
     run_until(ctx, B, n0 + 10, 0, 5000); /* still streaming */
 
     send_and_expect(ctx, B, "{\"type\":\"pause\"}", "ack", NULL);
+    /* the ack names the newest frame made before the pause: none made after it comes, to the
+     * client that paused or to another */
+    uint64_t ack_seq = ack_seq_of(B);
     wsc_run(ctx, 300, NULL, NULL); /* frames already in flight */
     uint64_t paused = A->total_frames;
     wsc_run(ctx, 600, NULL, NULL);
     ASSERT(A->total_frames <= paused + 1);
+    if (A->last_seq > ack_seq || B->last_seq > ack_seq) {
+        fprintf(stderr, "pause: the ack named frame %llu, frames %llu and %llu came after it\n",
+                (unsigned long long)ack_seq, (unsigned long long)A->last_seq,
+                (unsigned long long)B->last_seq);
+        exit(1);
+    }
+    printf("pause: the ack named frame %llu; none newer came in 0.9 s\n",
+           (unsigned long long)ack_seq);
     send_and_expect(ctx, B, "{\"type\":\"resume\"}", "ack", NULL);
     run_until(ctx, A, A->total_frames + 10, 0, 5000);
     send_and_expect(ctx, B, "{\"type\":\"speed\",\"speed\":2}", "ack", NULL);

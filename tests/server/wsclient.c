@@ -72,6 +72,7 @@ static void on_binary(wsc *c, const unsigned char *m, size_t len)
         return;
     }
     c->total_frames++;
+    c->last_seq = u64(m + 24);
     if (c->nframes == WSC_MAX_FRAMES)
         return;
     wsc_frame *f = &c->frames[c->nframes++];

@@ -32,6 +32,7 @@ typedef struct wsc {
     wsc_frame frames[WSC_MAX_FRAMES];
     int nframes;           /* stops growing at WSC_MAX_FRAMES; total counts all */
     uint64_t total_frames, bytes;
+    uint64_t last_seq;     /* of the newest frame, counted in total_frames */
     char *texts[WSC_MAX_TEXT]; /* non-hello text messages (replies) */
     int ntexts;
     char *out[16];         /* queued text to send */
