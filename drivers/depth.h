@@ -13,8 +13,8 @@
  *   label.c     head / lhand / rhand / lfoot / rfoot by a cost assignment in that body frame that
  *               includes the previous frame's markers (temporal consistency), with a confidence
  *               per marker; a hand (foot) pair whose swap costs little has an uncertain side and is
- *               not reported valid (drv_depth_result.side_uncertain), nor is a hand that is
- *               inferred rather than seen (.inferred, markers.c);
+ *               not reported valid (drv_depth_result.side_uncertain), nor is a hand or foot
+ *               that is inferred rather than seen (.inferred, markers.c);
  *   one_euro.c  One Euro filter (Casiez et al. 2012) per marker coordinate.
  * Output frame: the camera's, in metres, Y up: X to the image's right, Y up, Z towards the viewer
  * (the camera looks along -Z). A person facing the camera has their left hand at +X.
@@ -134,8 +134,10 @@ typedef struct drv_depth_result {
                                          behind a nearer surface at or above the elbow, the
                                          point labelled is not reached through an arm, or it is
                                          nearer the centroid than a shoulder and an upper arm
-                                         (a person seen down to the floor); xyz is a guess, not
-                                         a measurement, and valid is 0 */
+                                         (a person seen down to the floor); or a foot not seen:
+                                         its leg is cut by the image's bottom edge above the
+                                         ankle. xyz is a guess, not a measurement, and valid
+                                         is 0 */
     float conf[DRV_DEPTH_NLABELS];    /* 0..1 */
     int nextrema;                     /* accumulative geodesic extrema found, followed by the hands
                                          estimated from arm loops (geodesic 0), up to the max */
