@@ -164,6 +164,8 @@ typedef struct drv__label_prev {
                            a person not seen down to the floor) */
     float head_len;    /* the person's centroid-to-head-top geodesic, measured on earlier frames
                           with the head in full view (markers.c); 0 = not yet measured */
+    uint8_t whole_body; /* the person is seen down to the floor, so the centroid is the whole
+                           body's (markers.c); label.c's HEAD_APART holds only then */
 } drv__label_prev;
 
 /* Assigns extrema to head/lhand/rhand/lfoot/rfoot. `up` and `right` are unit vectors of the body

@@ -7,7 +7,20 @@
  * l' = (t - c).x and l'_a = (a - c).x with x the camera's +X orthogonal to up (a head is above
  * the torso in the image however the person is turned; along a turned body's left its offset
  * mixes in the lean towards the camera). Costs (metres scaled to "units"; lower is better):
- *   head : |l'_a|/0.08 + |l'|/0.15 + max(0, 0.3 - h)/0.1 + max(0, g - 1.0)/0.1   (h > 0.1, not on the border)
+ *   head : |l'_a|/0.08 + |l'|/0.15 + max(0, 0.3 - h)/0.1 + max(0, g - 1.0)/0.1
+ *          + max(0, HEAD_APART - g)/0.05   (h > 0.1, not on the border)
+ *          (HEAD_APART: the top of the head lies a shoulder's rise and a neck and head from the
+ *          centroid and from every earlier extremum; an extremum nearer is a shoulder or a bump
+ *          of the chest under a head out of view. Only for a person seen down to the floor: an
+ *          upper body's centroid lies on the chest, nearer the head (test_markers' real Kinect
+ *          frames at 1.2 m lost their heads). A tenth of a metre short costs 2 of MISS: at
+ *          /0.1 the SMPL walk's shoulder, g = 0.59 m with its head cut by the image's side edge,
+ *          paid 1.1 and was taken for the head, and the wrong label then held the head's own
+ *          extremum off for seven frames (before the whole-body condition; with it, /0.1 keeps
+ *          the walk but loses pjump's heads at +-35 degrees, 0.603 -> 0.589, held 0.690 ->
+ *          0.650, docs/PERFORMANCE.md). Before this term, over samba's and pjump's grids
+ *          (yaw -35..35, 2.0-3.5 m) and the four SMPL takes, 6 of the 285 heads labelled with
+ *          g < 0.7 m were within 10 cm of the head; 249 were labelled with the head out of view)
  *   hand : max(0, -s l_a)/0.04 + max(0, -0.6 - h)/0.1 + max(0, R - g)/0.1 + max(0, 0.15 - m)/0.1
  *          (R = HAND_REACH: a shoulder and a forearm)
  *          (s = +1 left, -1 right; m = the highest point of its shortest path from the centroid
@@ -28,7 +41,10 @@
  *   An extremum touching the image border is a cut through the body, not an extremity: it can
  *   not be a foot, and costs 2 more as a hand (a hand partly out of view). It can be the head
  *   only in the top row, when its geodesic from the centroid is at most HEAD_CUT_SLACK shorter
- *   than the person's head length measured on earlier frames with the head in view (markers.c):
+ *   than the person's head length measured on earlier frames with the head in view (markers.c;
+ *   until it has been measured HEAD_APART for a person seen down to the floor, so that one whose
+ *   head has not yet been seen whole - at 2.0 m, pjump's is above the image in 211 of 222
+ *   frames - can still have one):
  *   the top of the head (pjump: of the neck) is then just above the image; a neck cut lower
  *   down, with the head well out of view, is not reported. Such a cut costs, as the head, the
  *   length missing above the image, max(0, head_len - g0)/0.1, in place of the 2 (which lost
@@ -44,7 +60,8 @@
  *   dropped (pjump turned by -20 degrees, arms bent before the chest);
  *   + temporal term min(|t - p_prev|/0.1, 3) - 1 when the label had a position last frame,
  * and leaving a label empty costs MISS. The assignment (each extremum used at most once) with the
- * least total cost is found exhaustively (at most 6^5 branches, pruned by the best total so far).
+ * least total cost is found exhaustively (at most 15^5 branches - 12 extrema, 2 arm-loop hands
+ * or none per label - pruned by the best total so far; bench_depth: 0.27 ms a frame in all).
  * The confidence of a label is 1 - cost/MISS, clamped to [0, 1]. Sides: the hands' (feet's)
  * labels swapped - each pair's two costs exchanged, temporal terms included - must cost at least
  * SIDE_MARGIN more than the assignment found, otherwise the pair's side is uncertain (as a
@@ -71,6 +88,11 @@
 #define HEAD_CUT_SLACK 0.08f /* metres: how much shorter than the measured head length a cut
                                  may be and still be the head (the spread of the head's
                                  geodesic over frames in full view: pjump 0.82 - 0.95 m) */
+#define HEAD_APART 0.7f /* metres of accumulative geodesic: the least a head's top lies from the
+                           centroid and the extrema found before it. The top of the head is
+                           about 0.45 of the body's height above the centre of mass (0.55 of the
+                           height up), 0.72 m at 1.6 m; a shoulder's tip (0.82 of the height up,
+                           0.13 to the side, Drillis & Contini) about 0.3 of it, 0.48 m */
 #define NL 5
 #define MAXE (DRV_DEPTH_MAX_EXTREMA + 2)
 #define LOOP_PENALTY 2.f /* a free hand on a side whose arm closes a loop */
@@ -143,6 +165,9 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
     const float an = sqrtf(dot3(across, across));
     for (int a = 0; a < 3; a++)
         across[a] /= an;
+    /* a head's least geodesic, when the centroid is the whole body's (an upper body's lies on
+       the chest, nearer the head) */
+    const float apart = prev && prev->whole_body ? HEAD_APART : 0.f;
     /* an arm loop whose hand estimate has a free extremum of a whole arm's reach within a
        forearm and hand of it is an arm seen closed only in the image (the hand in front of the
        chest across a depth step, which the geodesic graph crosses): that extremum is the hand */
@@ -174,15 +199,15 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
         float b = x->border ? 2.f : 0.f;
         /* a head cut by the image's top edge: only when the cut lies within HEAD_CUT_SLACK of
            the person's measured head length (the head's top just above the image) */
-        const int head_cut = x->top_cut && prev && prev->head_len > 0 &&
-                             x->geodesic0 >= prev->head_len - HEAD_CUT_SLACK;
-        const float short_head = prev && prev->head_len > 0
-                                     ? pos(prev->head_len - HEAD_CUT_SLACK - x->geodesic0) / 0.1f
-                                     : 0.f;
+        const float head_len = prev && prev->head_len > 0 ? prev->head_len : apart;
+        const int head_cut =
+            x->top_cut && head_len > 0 && x->geodesic0 >= head_len - HEAD_CUT_SLACK;
+        const float short_head =
+            head_len > 0 ? pos(head_len - HEAD_CUT_SLACK - x->geodesic0) / 0.1f : 0.f;
         s.cost[0][e] = h > 0.1f && (!x->border || head_cut)
                            ? hla / 0.08f + hl / 0.15f + pos(0.3f - h) / 0.1f +
-                                 pos(g - 1.0f) / 0.1f + short_head +
-                                 (head_cut ? pos(prev->head_len - x->geodesic0) / 0.1f : b)
+                                 pos(g - 1.0f) / 0.1f + pos(apart - g) / 0.05f + short_head +
+                                 (head_cut ? pos(head_len - x->geodesic0) / 0.1f : b)
                            : FLT_MAX;
         if (x->loop) { /* a hand on the hip, from an arm loop: that side's hand only */
             for (int k = 0; k < NL; k++)
