@@ -15,6 +15,9 @@
  *               per marker; a hand (foot) pair whose swap costs little has an uncertain side and is
  *               not reported valid (drv_depth_result.side_uncertain), nor is a hand or foot
  *               that is inferred rather than seen (.inferred, markers.c);
+ *   head_axis.c, head_crown.c  the head marker: the top of the head on its axis, from its
+ *               silhouette; or, when an arm before the head cuts its top off from the face, that
+ *               top, an extremum of its own;
  *   one_euro.c  One Euro filter (Casiez et al. 2012) per marker coordinate.
  * Output frame: the camera's, in metres, Y up: X to the image's right, Y up, Z towards the viewer
  * (the camera looks along -Z). A person facing the camera has their left hand at +X.

@@ -132,6 +132,12 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
                           int source, const float up[3], const float right[3], drv__extremum *ex,
                           int max);
 
+/* The extremum among ex[0..nex) that is the top of the head labelled ex[head], cut off from it by
+ * an arm in front of the head (head_crown.c), or -1. label: the extremum of each label, -1 = none;
+ * up: the body frame's up. */
+int drv__head_crown(const drv__extremum *ex, int nex, const int label[5], int head,
+                    const float up[3]);
+
 /* The top of the head found at extremum x, on the head's axis, from its silhouette in g
  * (head_axis.c). Returns 0, p untouched, when no grid row across the head is two cells wide or an
  * occluder hides part of its silhouette. */

@@ -16,7 +16,8 @@
  * cell happens to be, 12-26 cm to the side in 19 of 48 such heads on pjump) and raised by the
  * length missing above the image (head_above_cut). A head in full view is placed at its top on its
  * axis, found from its silhouette (head_axis.c), or, when an arm in front of it hides part of that,
- * half a head (head_offset) behind its visible top. The torso marker is the person's centroid. A
+ * half a head (head_offset) behind its visible top (behind the top beyond the arm, when the arm
+ * cuts the head's top off from the face: head_crown.c). The torso marker is the centroid. A
  * hand whose extremum ends at an occluding edge (geodesic.c, hidden ends) is placed at the
  * estimated hidden end. That estimate carries the limb on by a hand's length, which is right when
  * only the hand is hidden (samba's hands on the far hip, the forearm in view), and a guess when the
@@ -416,7 +417,12 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
             }
             if (l == DRV_DEPTH_HEAD && t->ex[label[l]].top_cut && t->head_len > 0)
                 head_above_cut(t, &t->ex[label[l]], up, p);
-            if (l == DRV_DEPTH_HEAD && !t->ex[label[l]].top_cut &&
+            const int crown = l == DRV_DEPTH_HEAD && !t->ex[label[l]].top_cut
+                                  ? drv__head_crown(t->ex, nex, label, label[l], up)
+                                  : -1;
+            if (crown >= 0)
+                memcpy(p, t->ex[crown].tip, sizeof p); /* the top, beyond an arm (head_crown.c) */
+            if (l == DRV_DEPTH_HEAD && crown < 0 && !t->ex[label[l]].top_cut &&
                 drv__head_on_axis(g, &t->ge, &t->o, &t->ex[label[l]], p)) {
                 /* the top of the head on its axis, from its silhouette (head_axis.c) */
             } else if (l == DRV_DEPTH_HEAD) { /* no silhouette to go by: half a head behind */
