@@ -132,6 +132,11 @@ int drv__geodesic_extrema(drv__geodesic *ge, const drv__grid *g, const drv_depth
                           int source, const float up[3], const float right[3], drv__extremum *ex,
                           int max);
 
+/* metres: a head's length, ~0.13 of the body's height from chin to crown (Drillis & Contini),
+ * 0.21 m at 1.6 m. head_axis.c takes the head's cells within it of the head's extremum;
+ * head_crown.c, the head's top beyond an arm within it of the head's tip. */
+#define DRV__HEAD_REACH 0.2f
+
 /* The extremum among ex[0..nex) that is the top of the head labelled ex[head], cut off from it by
  * an arm in front of the head (head_crown.c), or -1. label: the extremum of each label, -1 = none;
  * up: the body frame's up. */

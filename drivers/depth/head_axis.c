@@ -34,9 +34,8 @@
 #include <math.h>
 
 /* metres: the head's cells lie this close to its extremum, in space and in geodesic distance
- * from the centroid; a head is ~0.13 of the body's height from chin to crown (Drillis &
- * Contini), 0.21 m at 1.6 m */
-#define HEAD_REACH 0.2f
+ * from the centroid: a head's length (depth_internal.h) */
+#define HEAD_REACH DRV__HEAD_REACH
 /* metres below the top along the head's direction whose silhouette is used: down to the head's
  * widest part, about half its height (0.1 m), and a grid cell more (0.017 m at 2.5 m). Measured at
  * 0.08-0.16 m over both grids: pjump's heads, mean of the 2.0-3.5 m cells at -20..+20 degrees,

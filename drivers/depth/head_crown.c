@@ -20,9 +20,8 @@
  * within a hand's thickness of the head's top. */
 #include "depth_internal.h"
 
-/* metres: a head is ~0.13 of the body's height from chin to crown (Drillis & Contini), 0.21 m at
- * 1.6 m (head_axis.c's HEAD_REACH) */
-#define HEAD_REACH 0.2f
+/* metres: a head's length, as head_axis.c's (depth_internal.h) */
+#define HEAD_REACH DRV__HEAD_REACH
 /* metres: how much higher than the labelled point the crown must be. Measured at 0 and 0.05 m on
  * lambada at 2.5 m: heads within 10 cm at -20 degrees 0.921 / 0.928, at -35 0.602 / 0.596 */
 #define CROWN_RISE 0.05f
