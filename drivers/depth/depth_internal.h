@@ -171,6 +171,8 @@ int drv__body_frame_update(drv__body_frame *bf, const drv__grid *g, const float 
 typedef struct drv__label_prev {
     float p[5][3];     /* head, lhand, rhand, lfoot, rfoot, as last output */
     uint8_t valid[5];
+    uint8_t missed[5]; /* frames since the label was last found (0: found in the previous one) */
+    uint8_t top_touch; /* the person's silhouette reaches the image's top edge (markers.c) */
     float elbow_reach0; /* metres from the centroid: a hand nearer is an elbow (markers.c; 0 for
                            a person not seen down to the floor) */
     float head_len;    /* the person's centroid-to-head-top geodesic, measured on earlier frames

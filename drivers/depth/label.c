@@ -58,7 +58,22 @@
  *   hand) of it: the arm then only looks closed
  *   in the image - its hand in front of the chest, reached across a depth step - and the loop is
  *   dropped (pjump turned by -20 degrees, arms bent before the chest);
- *   + temporal term min(|t - p_prev|/0.1, 3) - 1 when the label had a position last frame,
+ *   + temporal term min(|t - p_prev|/r, 3) - 1 when the label had a position last frame (found
+ *   or held: markers.c keeps a lost label's last output for hold_frames, 15), r = STEP_REACH,
+ *   0.1 m, how far a marker moves in one frame. For the head lost n frames ago, r =
+ *   STEP_REACH sqrt(n + 1), the spread of a random walk after n + 1 steps, and the term is
+ *   not below 0 (an old position is no evidence for a candidate beside it), unless the person's
+ *   silhouette reaches the image's top edge: there the head may be just above the image, and
+ *   the old position is what keeps a raised arm's or a shoulder's cut from being taken for it.
+ *   With r = 0.1 m for every age a head lost from view was held off its new place for up to
+ *   15 frames (pjump turned by 20-35 degrees, its head turned out of view and back; at 2.0 m,
+ *   the neck's top coming back into view as the performer crouches): pjump's heads within
+ *   10 cm over -20..+20 degrees 0.824 -> 0.846, at +-35 0.603 -> 0.714, valid heads with no head
+ *   within 10 cm 0.253 -> 0.249 and 0.232 -> 0.228; samba unchanged in every cell; the SMPL
+ *   lambada at -20 degrees 0.928 -> 0.930 (docs/PERFORMANCE.md, 2026-12-06). Linear growth
+ *   (a top speed) found a little more on pjump, but labelled a point 35-43 cm from lambada's
+ *   head at -20 degrees, which then held the head off (0.928 -> 0.912); aged for every label,
+ *   samba's feet at +-35 degrees fell 0.783 -> 0.774;
  * and leaving a label empty costs MISS. The assignment (each extremum used at most once) with the
  * least total cost is found exhaustively (at most 15^5 branches - 12 extrema, 2 arm-loop hands
  * or none per label - pruned by the best total so far; bench_depth: 0.27 ms a frame in all).
@@ -73,6 +88,8 @@
 #include <string.h>
 
 #define MISS 2.5f
+/* the temporal term's scale: how far a marker moves in a frame (0.1 m at 30 fps, 3 m/s) */
+#define STEP_REACH 0.1f
 #define FOOT_CUT 0.3f /* a foot whose tip reaches the bottom of the image */
 #define ARM_LOW -0.3f   /* a hand this far below the centroid (hanging, next to a dress hem) ... */
 #define ARM_CLIMB 0.15f /* ... has a path from the centroid that climbs at least this (shoulder) */
@@ -240,8 +257,14 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
                     continue;
                 float d[3] = {x->tip[0] - prev->p[k][0], x->tip[1] - prev->p[k][1],
                               x->tip[2] - prev->p[k][2]};
-                float dist = sqrtf(dot3(d, d));
-                s.cost[k][e] += fminf(dist / 0.1f, 3.f) - 1.f;
+                float dist = sqrtf(dot3(d, d)), reach = STEP_REACH;
+                /* a head lost n frames ago: its position spread over sqrt(n + 1) steps (see the
+                   header) */
+                const int aged = k == 0 && prev->missed[k] > 0 && !prev->top_touch;
+                if (aged)
+                    reach *= sqrtf(1.f + prev->missed[k]);
+                float term = fminf(dist / reach, 3.f) - 1.f;
+                s.cost[k][e] += aged && term < 0 ? 0.f : term;
                 if (s.cost[k][e] < 0)
                     s.cost[k][e] = 0;
             }

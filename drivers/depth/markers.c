@@ -371,9 +371,13 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     drv__label_prev prev;
     for (int l = 0; l < 5; l++) {
         prev.valid[l] = t->missed[l] <= t->o.hold_frames;
+        prev.missed[l] = (uint8_t)(t->missed[l] < 255 ? t->missed[l] : 255);
         memcpy(prev.p[l], t->out[l], sizeof prev.p[l]);
     }
     prev.head_len = t->head_len;
+    prev.top_touch = 0; /* a cell of the person in the grid's top row */
+    for (int x = 0; x < g->gw && !prev.top_touch; x++)
+        prev.top_touch = g->person[x];
     int top_cut = 0; /* the person is cut by the image's top edge: the head may be out of view */
     for (int i = 0; i < nex; i++)
         top_cut |= t->ex[i].top_cut;
