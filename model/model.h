@@ -563,6 +563,11 @@ int mdl_skin_get_stats(const mdl_model *m, mdl_skin_stats *st);
  * bone transforms of fitted frame f (nb x 12: R row-major, then t); pointers valid while m lives. */
 int mdl_skin_get(const mdl_model *m, int *nb, int *K, int *nframes, const int **bone,
                  const double **w, const double **T);
+/* Linear blend skinning (lbs.c, Zheng 2013 eq. 1): V (nv x 3) = the rest points (nv x 3) moved by
+ * the bone transforms T (nb x 12, as mdl_skin_get's, one frame) with K slots of bone and w per
+ * vertex. */
+void mdl_skin_lbs(int nv, int K, const int *bone, const double *w, const float *rest,
+                  const double *T, float *V);
 /* glTF 2.0 binary (.glb, gltf.c): the rest mesh, one joint per bone, JOINTS_0/WEIGHTS_0 and one
  * animation (translation + rotation per bone per fitted frame). close_loop: one more key at
  * N / fps equal to frame 0, so that an engine looping the clip plays the skin's loop (frame N - 1

@@ -181,18 +181,8 @@ static void example_motion(const mdl_model *m, double *jump, double *p99, double
         return;
     }
     for (int f = 0; f < N; f++)
-        for (int i = 0; i < info.nv; i++) {
-            const float *p = info.rest + 3 * (size_t)i;
-            for (int c = 0; c < 3; c++) {
-                double a = 0;
-                for (int s = 0; s < K; s++) {
-                    const double *M = T + 12 * ((size_t)f * nb + bone[(size_t)K * i + s]);
-                    a += w[(size_t)K * i + s] *
-                         (M[3 * c] * p[0] + M[3 * c + 1] * p[1] + M[3 * c + 2] * p[2] + M[9 + c]);
-                }
-                V[3 * ((size_t)f * info.nv + i) + c] = (float)a;
-            }
-        }
+        mdl_skin_lbs(info.nv, K, bone, w, info.rest, T + 12 * (size_t)f * nb,
+                     V + 3 * (size_t)f * info.nv);
     *jump = max_jump(V, info.nv, N);
     floor_range[0] = INFINITY;
     floor_range[1] = -INFINITY;

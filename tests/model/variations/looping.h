@@ -7,6 +7,7 @@
 
 #include "model.h"
 #include "core/rigid.h"
+#include "tube_mesh.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -39,22 +40,9 @@ static inline void lp_compose(double RA[9], double tA[3], const double RB[9], co
 static inline mdl_meshseq *lp_sequence(int frames, int period)
 {
     const int rings = 31, around = 10;
-    mdl_meshseq *s = calloc(1, sizeof *s);
-    s->nv = rings * around;
-    s->nf = 2 * (rings - 1) * around;
-    s->frames = frames;
-    s->fps = 30;
-    s->V = calloc((size_t)frames * s->nv * 3, sizeof *s->V);
-    s->F = calloc(3 * (size_t)s->nf, sizeof *s->F);
-    int f = 0;
-    for (int r = 0; r + 1 < rings; r++)
-        for (int a = 0; a < around; a++) {
-            uint32_t v0 = r * around + a, v1 = r * around + (a + 1) % around, v2 = v0 + around,
-                     v3 = v1 + around;
-            uint32_t t[6] = {v0, v1, v2, v1, v3, v2};
-            memcpy(s->F + 3 * (size_t)f, t, sizeof t);
-            f += 2;
-        }
+    mdl_meshseq *s = test_tube_mesh(rings, around, frames);
+    if (!s)
+        return NULL;
     for (int t = 0; t < frames; t++) {
         double ph = 2 * M_PI * t / period;
         double R[3][9], tr[3][3];
@@ -126,19 +114,9 @@ static inline float *lp_skin_frames(const mdl_model *m, int *nframes)
     mdl_model_info info;
     mdl_model_get_info(m, &info);
     float *V = calloc((size_t)N * info.nv * 3, sizeof *V);
-    for (int f = 0; f < N; f++)
-        for (int i = 0; i < info.nv; i++) {
-            const float *p = info.rest + 3 * (size_t)i;
-            for (int c = 0; c < 3; c++) {
-                double acc = 0;
-                for (int s = 0; s < K; s++) {
-                    const double *M = T + 12 * ((size_t)f * nb + bone[(size_t)K * i + s]);
-                    acc += w[(size_t)K * i + s] *
-                           (M[3 * c] * p[0] + M[3 * c + 1] * p[1] + M[3 * c + 2] * p[2] + M[9 + c]);
-                }
-                V[3 * ((size_t)f * info.nv + i) + c] = (float)acc;
-            }
-        }
+    for (int f = 0; V && f < N; f++)
+        mdl_skin_lbs(info.nv, K, bone, w, info.rest, T + 12 * (size_t)f * nb,
+                     V + 3 * (size_t)f * info.nv);
     *nframes = N;
     return V;
 }
