@@ -1,56 +1,19 @@
 /* bench_skin.c - SSDR benchmark (issue 10; not a timed test): wall and CPU time and RMSE of
  * mdl_skin_fit on horse-gallop (22 bones) and samba (40 bones), 4 influences, 1 and 2 threads
- * (a pthread parallel-for as server/cmd_skin.c has), median and maximum of `reps` runs (argv[1],
+ * (the command line's parallel-for, server/cli_parallel.c), median and maximum of `reps` runs (argv[1],
  * default 3; the maximum is the p99 of so few). The machines are shared: the CPU time is the
  * steadier figure, and the load average is printed before each case.
  * When DEMBONES names an executable built from dembones_driver.cpp (Dem Bones v1.2.1 with its
  * command-line defaults, -z 4), it runs on the same data, threads and reps, and its line is
  * printed under ours: the peer in the same run. Without it, issue 10's quoted figures are. */
+#include "cli.h"
 #include "model.h"
 #include "test.h"
 
 #include <cjson/cJSON.h>
 
-#include <pthread.h>
-#include <stdatomic.h>
 #include <time.h>
 #include <unistd.h>
-
-typedef struct job {
-    atomic_int next;
-    int n;
-    mdl_parallel_body body;
-    void *ctx;
-} job;
-typedef struct warg {
-    job *j;
-    int worker;
-} warg;
-
-static void *wmain(void *arg)
-{
-    warg *a = arg;
-    for (int i; (i = atomic_fetch_add(&a->j->next, 1)) < a->j->n;)
-        a->j->body(a->j->ctx, i, a->worker);
-    return NULL;
-}
-
-static void par(void *ud, int n, mdl_parallel_body body, void *ctx)
-{
-    int threads = *(int *)ud;
-    job j = {.n = n, .body = body, .ctx = ctx};
-    atomic_init(&j.next, 0);
-    pthread_t t[8];
-    warg a[8];
-    for (int w = 1; w < threads; w++) {
-        a[w] = (warg){&j, w};
-        pthread_create(&t[w], NULL, wmain, &a[w]);
-    }
-    a[0] = (warg){&j, 0};
-    wmain(&a[0]);
-    for (int w = 1; w < threads; w++)
-        pthread_join(t[w], NULL);
-}
 
 static double clk(clockid_t c)
 {
@@ -129,9 +92,10 @@ static void run(const char *name, const mdl_meshseq *s, const float *rest, int b
             mdl_skin_opts_default(&o);
             o.bones = bones;
             o.rest = rest;
+            cli_pool pool = {.threads = threads};
             o.workers = threads;
-            o.parallel = threads > 1 ? par : NULL;
-            o.parallel_ud = &threads;
+            o.parallel = threads > 1 ? cli_parallel_for : NULL;
+            o.parallel_ud = &pool;
             mdl_model *m = NULL;
             double w0 = clk(CLOCK_MONOTONIC), c0 = clk(CLOCK_PROCESS_CPUTIME_ID);
             ASSERT_OK(mdl_skin_fit(s, idx, n, &o, &m, err), err);

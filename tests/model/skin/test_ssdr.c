@@ -2,35 +2,22 @@
  * weights is recovered; weights are non-negative, sum to 1 and have at most K non-zeros; the
  * output is identical for 1 and 2 threads; 64 bones on a 5,000-vertex, 57-frame sequence
  * terminates with exactly 64 bones; the model file round trip and the clock synthesis. */
+#include "cli.h"
 #include "model.h"
 #include "core/rigid.h"
 #include "test.h"
+#include "tube_mesh.h"
 
 #include <errno.h>
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdint.h>
 #include <time.h>
 
 /* a cylinder along x, `rings` x `around` vertices, length len, radius 0.15 */
 static mdl_meshseq *cylinder(int rings, int around, double len, int frames)
 {
-    mdl_meshseq *s = calloc(1, sizeof *s);
-    s->nv = rings * around;
-    s->nf = 2 * (rings - 1) * around;
-    s->frames = frames;
-    s->fps = 30;
-    s->V = calloc((size_t)frames * s->nv * 3, sizeof *s->V);
-    s->F = calloc(3 * (size_t)s->nf, sizeof *s->F);
-    int f = 0;
-    for (int r = 0; r + 1 < rings; r++)
-        for (int a = 0; a < around; a++) {
-            uint32_t v0 = r * around + a, v1 = r * around + (a + 1) % around, v2 = v0 + around,
-                     v3 = v1 + around;
-            uint32_t t[6] = {v0, v1, v2, v1, v3, v2};
-            memcpy(s->F + 3 * (size_t)f, t, sizeof t);
-            f += 2;
-        }
+    mdl_meshseq *s = test_tube_mesh(rings, around, frames);
+    if (!s)
+        return NULL;
     for (int r = 0; r < rings; r++)
         for (int a = 0; a < around; a++) {
             float *p = s->V + 3 * ((size_t)r * around + a);
@@ -122,39 +109,6 @@ static void check_weights(const mdl_model *m, int nv)
         ASSERT_NEAR_I(sum, 1.0, 1e-6, i);
         ASSERT(nz <= K);
     }
-}
-
-/* a pthread parallel-for, as server/cmd_skin.c has */
-typedef struct job {
-    atomic_int next;
-    int n, worker;
-    mdl_parallel_body body;
-    void *ctx;
-} job;
-
-typedef struct warg {
-    job *j;
-    int worker;
-} warg;
-
-static void *wmain(void *arg)
-{
-    warg *a = arg;
-    for (int i; (i = atomic_fetch_add(&a->j->next, 1)) < a->j->n;)
-        a->j->body(a->j->ctx, i, a->worker);
-    return NULL;
-}
-
-static void par2(void *ud, int n, mdl_parallel_body body, void *ctx)
-{
-    (void)ud;
-    job j = {.n = n, .body = body, .ctx = ctx};
-    atomic_init(&j.next, 0);
-    pthread_t t;
-    warg a1 = {&j, 1}, a0 = {&j, 0};
-    ASSERT_INT_EQ(pthread_create(&t, NULL, wmain, &a1), 0);
-    wmain(&a0);
-    pthread_join(t, NULL);
 }
 
 static void test_recovery(void)
@@ -261,8 +215,10 @@ static void test_threads_identical(void)
     mdl_model *a = NULL, *b = NULL;
     char err[MDL_ERR_LEN] = "";
     ASSERT_OK(mdl_skin_fit(s, frames, 20, &o, &a, err), err);
+    cli_pool pool = {.threads = 2}; /* the command line's parallel-for (server/cli_parallel.c) */
     o.workers = 2;
-    o.parallel = par2;
+    o.parallel = cli_parallel_for;
+    o.parallel_ud = &pool;
     ASSERT_OK(mdl_skin_fit(s, frames, 20, &o, &b, err), err);
     int nb, K, nf;
     const int *ba, *bb;
