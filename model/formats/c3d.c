@@ -259,21 +259,29 @@ static int c3d_units(const c3d *c, double *scale, char *err)
     return 0;
 }
 
+/* The k-th (from 1) of POINT:LABELS, LABELS2, ...: a character array of labels *w characters
+ * wide; NULL where the run of them ends (missing, not characters, or of width 0). */
+static const c3d_param *c3d_labels_param(const c3d *c, int k, size_t *w)
+{
+    char pname[32];
+    if (k == 1)
+        snprintf(pname, sizeof pname, "LABELS");
+    else
+        snprintf(pname, sizeof pname, "LABELS%d", k);
+    const c3d_param *q = find_param(c, "POINT", pname);
+    if (!q || q->type != -1)
+        return NULL;
+    *w = q->ndims >= 1 ? (size_t)q->dims[0] : 1;
+    return *w ? q : NULL;
+}
+
 /* The number of labels POINT:LABELS, LABELS2, ... hold. */
 static size_t c3d_label_count(const c3d *c)
 {
-    size_t total = 0;
+    size_t total = 0, w;
     for (int k = 1;; k++) {
-        char pname[32];
-        if (k == 1)
-            snprintf(pname, sizeof pname, "LABELS");
-        else
-            snprintf(pname, sizeof pname, "LABELS%d", k);
-        const c3d_param *q = find_param(c, "POINT", pname);
-        if (!q || q->type != -1)
-            break;
-        size_t w = q->ndims >= 1 ? (size_t)q->dims[0] : 1;
-        if (w == 0)
+        const c3d_param *q = c3d_labels_param(c, k, &w);
+        if (!q)
             break;
         total += q->count / w;
     }
@@ -285,16 +293,9 @@ static int c3d_labels(const c3d *c, mdl_markers *m)
 {
     int filled = 0;
     for (int k = 1; filled < m->count; k++) {
-        char pname[32];
-        if (k == 1)
-            snprintf(pname, sizeof pname, "LABELS");
-        else
-            snprintf(pname, sizeof pname, "LABELS%d", k);
-        const c3d_param *q = find_param(c, "POINT", pname);
-        if (!q || q->type != -1)
-            break;
-        size_t w = q->ndims >= 1 ? (size_t)q->dims[0] : 1;
-        if (w == 0)
+        size_t w;
+        const c3d_param *q = c3d_labels_param(c, k, &w);
+        if (!q)
             break;
         size_t n = q->count / w;
         for (size_t i = 0; i < n && filled < m->count; i++, filled++)
