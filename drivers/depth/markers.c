@@ -14,7 +14,9 @@
  * that a head cut a little short by the image's top edge is still found (label.c); such a head is
  * placed on the middle of the cut (the head's axis; the extremum is wherever the cut's farthest
  * cell happens to be, 12-26 cm to the side in 19 of 48 such heads on pjump) and raised by the
- * length missing above the image (head_above_cut). A head in full view is placed at its top on its
+ * length missing above the image (head_above_cut); when that cut is wider than a head is long, it
+ * runs below the head (shoulders, chest, raised arms) and the head is reported inferred
+ * (HEAD_CUT_WIDTH). A head in full view is placed at its top on its
  * axis, found from its silhouette (head_axis.c), or, when an arm in front of it hides part of that,
  * half a head (head_offset) behind its visible top (behind the top beyond the arm, when the arm
  * cuts the head's top off from the face: head_crown.c). The torso marker is the centroid. A
@@ -116,6 +118,11 @@
  * per frame); label.c lets a limb cut by the image's top edge be the head when it is about as
  * long (the top of the head just above the image). */
 #define HEAD_LEN_ALPHA 0.1f
+/* metres: a head cut by the image's top edge whose cut is wider than this across the image is cut
+ * below the head - through the shoulders, the chest or both raised arms - and the head above the
+ * image is a guess, reported inferred. No horizontal section of a head is wider, seen from any
+ * side, than the head is long: a head's length (depth_internal.h) */
+#define HEAD_CUT_WIDTH DRV__HEAD_REACH
 
 const char *const drv_depth_label_names[DRV_DEPTH_NLABELS] = {"head",  "lhand", "rhand",
                                                               "lfoot", "rfoot", "torso"};
@@ -278,9 +285,10 @@ static void emit(drv_depth_tracker *t, int l, const float *meas, uint64_t t_us, 
 /* A head (or neck) cut by the image's top edge (label.c): the extremum is the farthest cell of
  * the cut, which may lie anywhere along it. The head's axis passes through the middle of the
  * cut: the mean of the run of person cells in the grid's top row that holds the extremum; its
- * top lies the missing length of the person's head geodesic (t->head_len less the cut's) above. */
-static void head_above_cut(const drv_depth_tracker *t, const drv__extremum *x, const float up[3],
-                           float p[3])
+ * top lies the missing length of the person's head geodesic (t->head_len less the cut's) above.
+ * Returns the run's width across the image (metres, from its first cell to its last). */
+static float head_above_cut(const drv_depth_tracker *t, const drv__extremum *x, const float up[3],
+                            float p[3])
 {
     const drv__grid *g = &t->g;
     int lo = x->cell, hi = x->cell;
@@ -295,6 +303,7 @@ static void head_above_cut(const drv_depth_tracker *t, const drv__extremum *x, c
     const float miss = fmaxf(0.f, t->head_len - x->geodesic0);
     for (int a = 0; a < 3; a++)
         p[a] = (float)(m[a] / (hi - lo + 1)) + miss * up[a];
+    return g->P[3 * hi] - g->P[3 * lo];
 }
 
 /* 1 when the limb ending at cell c goes on to the grid's bottom row: c is in it, or the column of
@@ -419,8 +428,9 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 const float gh = t->ex[label[l]].geodesic0;
                 t->head_len = t->head_len > 0 ? t->head_len + HEAD_LEN_ALPHA * (gh - t->head_len) : gh;
             }
+            float cut_width = 0; /* of a head cut by the image's top edge */
             if (l == DRV_DEPTH_HEAD && t->ex[label[l]].top_cut && t->head_len > 0)
-                head_above_cut(t, &t->ex[label[l]], up, p);
+                cut_width = head_above_cut(t, &t->ex[label[l]], up, p);
             const int crown = l == DRV_DEPTH_HEAD && !t->ex[label[l]].top_cut
                                   ? drv__head_crown(t->ex, nex, label, label[l], up)
                                   : -1;
@@ -447,6 +457,10 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 !x->loop && whole_body && x->geodesic0 < SHOULDER_GEODESIC + ELBOW_REACH;
             if (hand && (arm_hidden || short_of_elbow || !drv__label_through_arm(x))) {
                 r->valid[l] = 0; /* the hand is not in view: a guess, see the header */
+                r->inferred[l] = 1;
+            }
+            if (l == DRV_DEPTH_HEAD && cut_width > HEAD_CUT_WIDTH) {
+                r->valid[l] = 0; /* cut below the head: the head is above the image */
                 r->inferred[l] = 1;
             }
             const int foot = l == DRV_DEPTH_LFOOT || l == DRV_DEPTH_RFOOT;
