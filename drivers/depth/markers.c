@@ -282,20 +282,24 @@ static void emit(drv_depth_tracker *t, int l, const float *meas, uint64_t t_us, 
     memcpy(r->xyz[l], t->out[l], sizeof r->xyz[l]);
 }
 
+/* The run of person cells in the grid's top row that holds cell c (in that row): [*lo, *hi]. */
+static void top_run(const drv__grid *g, int c, int *lo, int *hi)
+{
+    *lo = *hi = c;
+    while (*lo > 0 && g->person[*lo - 1])
+        (*lo)--;
+    while (*hi + 1 < g->gw && g->person[*hi + 1])
+        (*hi)++;
+}
+
 /* A head (or neck) cut by the image's top edge (label.c): the extremum is the farthest cell of
  * the cut, which may lie anywhere along it. The head's axis passes through the middle of the
- * cut: the mean of the run of person cells in the grid's top row that holds the extremum; its
- * top lies the missing length of the person's head geodesic (t->head_len less the cut's) above.
- * Returns the run's width across the image (metres, from its first cell to its last). */
-static float head_above_cut(const drv_depth_tracker *t, const drv__extremum *x, const float up[3],
-                            float p[3])
+ * cut: the mean of the cut's run of person cells [lo, hi] (top_run); its top lies the missing
+ * length of the person's head geodesic (t->head_len less the cut's) above. */
+static void head_above_cut(const drv_depth_tracker *t, const drv__extremum *x, int lo, int hi,
+                           const float up[3], float p[3])
 {
     const drv__grid *g = &t->g;
-    int lo = x->cell, hi = x->cell;
-    while (lo > 0 && g->person[lo - 1])
-        lo--;
-    while (hi + 1 < g->gw && g->person[hi + 1])
-        hi++;
     double m[3] = {0, 0, 0};
     for (int c = lo; c <= hi; c++)
         for (int a = 0; a < 3; a++)
@@ -303,7 +307,6 @@ static float head_above_cut(const drv_depth_tracker *t, const drv__extremum *x, 
     const float miss = fmaxf(0.f, t->head_len - x->geodesic0);
     for (int a = 0; a < 3; a++)
         p[a] = (float)(m[a] / (hi - lo + 1)) + miss * up[a];
-    return g->P[3 * hi] - g->P[3 * lo];
 }
 
 /* 1 when the limb ending at cell c goes on to the grid's bottom row: c is in it, or the column of
@@ -428,9 +431,14 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 const float gh = t->ex[label[l]].geodesic0;
                 t->head_len = t->head_len > 0 ? t->head_len + HEAD_LEN_ALPHA * (gh - t->head_len) : gh;
             }
-            float cut_width = 0; /* of a head cut by the image's top edge */
-            if (l == DRV_DEPTH_HEAD && t->ex[label[l]].top_cut && t->head_len > 0)
-                cut_width = head_above_cut(t, &t->ex[label[l]], up, p);
+            float cut_width = 0; /* of a head cut by the image's top edge, across the image */
+            if (l == DRV_DEPTH_HEAD && t->ex[label[l]].top_cut) {
+                int lo, hi;
+                top_run(g, t->ex[label[l]].cell, &lo, &hi);
+                cut_width = g->P[3 * hi] - g->P[3 * lo];
+                if (t->head_len > 0)
+                    head_above_cut(t, &t->ex[label[l]], lo, hi, up, p);
+            }
             const int crown = l == DRV_DEPTH_HEAD && !t->ex[label[l]].top_cut
                                   ? drv__head_crown(t->ex, nex, label, label[l], up)
                                   : -1;
