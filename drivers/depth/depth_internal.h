@@ -185,10 +185,11 @@ typedef struct drv__label_prev {
  * frame (camera frame Y-up; right = the person's left, body_frame.c: the camera's +X for a person
  * facing the camera). label[i] receives the extremum index per label or -1; conf[i] in 0..1;
  * side_sure[i] 0 when the hands' (feet's) sides are not certain: the best assignment with the two
- * swapped costs less than SIDE_MARGIN more (label.c). */
+ * swapped costs less than SIDE_MARGIN more (label.c); *head_sure 0 when the head's anchor lies
+ * more than HEAD_ASIDE off the mid-plane (label.c): where it is, is a guess. */
 void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
                        const float right[3], const drv__label_prev *prev, int label[5],
-                       float conf[5], uint8_t side_sure[5]);
+                       float conf[5], uint8_t side_sure[5], uint8_t *head_sure);
 /* 1 when a hand's path from the centroid climbs to a shoulder or passes one (ARM_CLIMB, ARM_SIDE
  * in label.c): it was reached through an arm. An arm-loop hand (segment.c) counts as reached. */
 int drv__label_through_arm(const drv__extremum *x);

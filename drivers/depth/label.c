@@ -7,8 +7,20 @@
  * l' = (t - c).x and l'_a = (a - c).x with x the camera's +X orthogonal to up (a head is above
  * the torso in the image however the person is turned; along a turned body's left its offset
  * mixes in the lean towards the camera). Costs (metres scaled to "units"; lower is better):
- *   head : |l'_a|/0.08 + |l'|/0.15 + max(0, 0.3 - h)/0.1 + max(0, g - 1.0)/0.1
+ *   head : |l'_a|/A + |l'|/0.15 + max(0, 0.3 - h)/0.1 + max(0, g - 1.0)/0.1
  *          + max(0, HEAD_APART - g)/0.05   (h > 0.1, not on the border)
+ *          (A = HEAD_ASIDE, 0.08 m, while the person's silhouette reaches the image's top edge:
+ *          the head may be above the image, and a shoulder or a raised arm's cut under it lies
+ *          to the side; otherwise the head is in view and its anchor needs only to be told from
+ *          an arm's, which passes its shoulder ARM_SIDE, 0.15 m, off the mid-plane: A = ARM_SIDE.
+ *          A head whose anchor lies more than HEAD_ASIDE off is reported inferred, not valid
+ *          (markers.c): where it is, is a guess. A leaning or side-bent person's neck lies off
+ *          the centroid: pjump leaning towards the camera at +35 degrees, 3.2 m, 11-16 cm, and
+ *          was left unlabelled. Over both grids: pjump's heads within 10 cm at 3.2 / 3.5 m,
+ *          +35 degrees, 0.793 / 0.690 -> 0.891 / 0.819, 2.5 m +20 0.859 -> 0.922; valid heads
+ *          with no head within 10 cm at 2.5 m, 0.115-0.176 -> 0.095-0.147, at 2.0 m 0.375-0.625
+ *          -> 0.167-0.591, but up by 0.003-0.013 in six cells at 3.2-3.5 m; samba's heads +0.006
+ *          to +0.012 in three cells, its valid wrong heads within 0.006; docs/PERFORMANCE.md)
  *          (HEAD_APART: the top of the head lies a shoulder's rise and a neck and head from the
  *          centroid and from every earlier extremum; an extremum nearer is a shoulder or a bump
  *          of the chest under a head out of view. Only for a person seen down to the floor: an
@@ -110,6 +122,10 @@
                            about 0.45 of the body's height above the centre of mass (0.55 of the
                            height up), 0.72 m at 1.6 m; a shoulder's tip (0.82 of the height up,
                            0.13 to the side, Drillis & Contini) about 0.3 of it, 0.48 m */
+#define HEAD_ASIDE 0.08f /* metres: the head's anchor (on the neck) this far off the mid-plane
+                           costs 1 while the person's silhouette reaches the image's top edge
+                           (the head may be above the image, a shoulder under it); one
+                           farther is reported inferred (see the header) */
 #define NL 5
 #define MAXE (DRV_DEPTH_MAX_EXTREMA + 2)
 #define LOOP_PENALTY 2.f /* a free hand on a side whose arm closes a loop */
@@ -171,7 +187,7 @@ int drv__label_through_arm(const drv__extremum *x)
 
 void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
                        const float right[3], const drv__label_prev *prev, int label[5],
-                       float conf[5], uint8_t side_sure[5])
+                       float conf[5], uint8_t side_sure[5], uint8_t *head_sure)
 {
     search s;
     s.nex = nex < MAXE ? nex : MAXE;
@@ -189,6 +205,9 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
        forearm and hand of it is an arm seen closed only in the image (the hand in front of the
        chest across a depth step, which the geodesic graph crosses): that extremum is the hand */
     uint8_t loop_off[MAXE] = {0};
+    /* the head's anchor off the mid-plane: scale, and per extremum (HEAD_ASIDE) */
+    const float aside = prev && !prev->top_touch ? ARM_SIDE : HEAD_ASIDE;
+    float head_aside[MAXE] = {0};
     int loop_side[2] = {0, 0};
     for (int e = 0; e < s.nex; e++) {
         if (!ex[e].loop)
@@ -221,8 +240,9 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
             x->top_cut && head_len > 0 && x->geodesic0 >= head_len - HEAD_CUT_SLACK;
         const float short_head =
             head_len > 0 ? pos(head_len - HEAD_CUT_SLACK - x->geodesic0) / 0.1f : 0.f;
+        head_aside[e] = hla;
         s.cost[0][e] = h > 0.1f && (!x->border || head_cut)
-                           ? hla / 0.08f + hl / 0.15f + pos(0.3f - h) / 0.1f +
+                           ? hla / aside + hl / 0.15f + pos(0.3f - h) / 0.1f +
                                  pos(g - 1.0f) / 0.1f + pos(apart - g) / 0.05f + short_head +
                                  (head_cut ? pos(head_len - x->geodesic0) / 0.1f : b)
                            : FLT_MAX;
@@ -286,6 +306,7 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
     /* the sides: how much more the best assignment with the pair's labels swapped costs */
     for (int k = 0; k < NL; k++)
         side_sure[k] = 1;
+    *head_sure = s.best[0] < 0 || head_aside[s.best[0]] <= HEAD_ASIDE;
     for (int pair = 1; pair <= 3; pair += 2) {
         const int a = s.best[pair], b = s.best[pair + 1];
         if (a < 0 && b < 0)

@@ -404,8 +404,9 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     prev.whole_body = (uint8_t)whole_body;
     int label[5];
     float conf[5];
-    uint8_t side_sure[5];
-    drv__label_assign(t->ex, nex, g->centroid, up, right, &prev, label, conf, side_sure);
+    uint8_t side_sure[5], head_sure;
+    drv__label_assign(t->ex, nex, g->centroid, up, right, &prev, label, conf, side_sure,
+                      &head_sure);
     for (int l = 0; l < 5; l++) {
         const int hand = l == DRV_DEPTH_LHAND || l == DRV_DEPTH_RHAND;
         if (label[l] >= 0) {
@@ -465,6 +466,10 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 !x->loop && whole_body && x->geodesic0 < SHOULDER_GEODESIC + ELBOW_REACH;
             if (hand && (arm_hidden || short_of_elbow || !drv__label_through_arm(x))) {
                 r->valid[l] = 0; /* the hand is not in view: a guess, see the header */
+                r->inferred[l] = 1;
+            }
+            if (l == DRV_DEPTH_HEAD && !head_sure) {
+                r->valid[l] = 0; /* its anchor far off the mid-plane: label.c, HEAD_ASIDE */
                 r->inferred[l] = 1;
             }
             if (l == DRV_DEPTH_HEAD && cut_width > HEAD_CUT_WIDTH) {

@@ -56,11 +56,13 @@ check() {
 # silhouette rather than half a head behind its visible top (head_axis.c; 2026-12-03). With 12
 # extrema and a head at least HEAD_APART from the centroid (label.c, 2026-12-04): pjump at +20
 # degrees 0.812 / 0.885 / side 0.943 -> 0.859 / 0.917 / 0.958, samba's feet at +20 0.84 -> 0.88.
+# With the head's anchor let lie up to ARM_SIDE off the mid-plane while the silhouette is clear of
+# the image's top edge (label.c, HEAD_ASIDE; 2026-12-07): pjump at +20 degrees head 0.859 -> 0.922.
 #      seq   yaw frames  head hand foot side  side_wrong [distance]
 check samba 0   :       0.95 0.9  0.9  0.9   0.02
 check pjump 0   :       0.84 0.9  0.95 0.94  0.02
 check samba 20  :       0.95 0.95 0.85 0.9   0.02
-check pjump 20  :       0.83 0.89 0.95 0.93  0.02
+check pjump 20  :       0.92 0.89 0.95 0.93  0.02
 check pjump -20 :       0.80 0.85 0.95 0.9   0.02
 check samba 0   :       0.9  0.9  -    0.9   0.02  2.0
 # pjump turned -35 degrees at 2.5 m: its head, lost from view (under the image's top edge or
@@ -71,17 +73,24 @@ check samba 0   :       0.9  0.9  -    0.9   0.02  2.0
 # A head whose cut by the image's top edge is wider than a head is long (HEAD_CUT_WIDTH: the cut
 # runs through the shoulders, the chest or the raised arms) is reported inferred (markers.c):
 # 0.266 -> 0.167 here, and 0.705 -> 0.438 at 2.0 m facing, where the top edge cuts pjump's
-# chest while the performer jumps with the arms up (2026-12-06).
-check pjump -35 :       0.74 0.70 0.95 0.86  0.02
+# chest while the performer jumps with the arms up (2026-12-06). A head whose anchor lies more
+# than HEAD_ASIDE (0.08 m) off the mid-plane is reported inferred (label.c, markers.c): 0.167 ->
+# 0.109 here, 0.438 -> 0.333 at 2.0 m facing; heads here 0.746 -> 0.761 (2026-12-07).
+check pjump -35 :       0.76 0.70 0.95 0.86  0.02
 grep -o '"confident_wrong": {[^}]*}' "$dir/pjump--35-2.5.json" >"$dir/cw35.json" ||
     fail "pjump at -35: no confident_wrong"
 v=$(json_num "$dir/cw35.json" head)
-le "$v" 0.17 || fail "pjump at -35: valid head reports with no head within 10 cm: '$v', above 0.17"
+le "$v" 0.11 || fail "pjump at -35: valid head reports with no head within 10 cm: '$v', above 0.11"
 check pjump 0   :       0.70 0.89 0.95 0.90  0.02  2.0
 grep -o '"confident_wrong": {[^}]*}' "$dir/pjump-0-2.0.json" >"$dir/cwp2.json" ||
     fail "pjump at 2.0 m: no confident_wrong"
 v=$(json_num "$dir/cwp2.json" head)
-le "$v" 0.44 || fail "pjump at 2.0 m: valid head reports with no head within 10 cm: '$v', above 0.44"
+le "$v" 0.34 || fail "pjump at 2.0 m: valid head reports with no head within 10 cm: '$v', above 0.34"
+# pjump turned +35 degrees at 3.2 m, in full view: its head leaning towards the camera lies 11-16
+# cm to the side of the centroid in the image and across the body (frames 117-126); at HEAD_ASIDE
+# for every head it was left unlabelled, at ARM_SIDE with the silhouette clear of the top edge it
+# is found: heads 0.793 -> 0.891 (label.c, 2026-12-07).
+check pjump 35  :       0.89 0.79 0.99 0.89  0.02  3.2
 # At 2.0 m the image's bottom edge cuts samba's legs 4-27 cm above the floor: no foot is in view,
 # but the cut legs were reported as valid feet, 0.68 of them with no foot within 10 cm. A leg cut
 # above the ankle is now reported inferred (markers.c, ANKLE_HEIGHT): measured 0.29.
