@@ -15,7 +15,7 @@
  *          an arm's, which passes its shoulder ARM_SIDE, 0.15 m, off the mid-plane: A = ARM_SIDE.
  *          A head whose anchor lies more than HEAD_ASIDE off is reported inferred, not valid
  *          (markers.c): where it is, is a guess. A leaning or side-bent person's neck lies off
- *          the centroid: pjump leaning towards the camera at +35 degrees, 3.2 m, 11-16 cm, and
+ *          the centroid: pjump leaning towards the camera at +20 degrees, 3.2 m, 11-16 cm, and
  *          was left unlabelled. Over both grids: pjump's heads within 10 cm at 3.2 / 3.5 m,
  *          +35 degrees, 0.793 / 0.690 -> 0.891 / 0.819, 2.5 m +20 0.859 -> 0.922; valid heads
  *          with no head within 10 cm at 2.5 m, 0.115-0.176 -> 0.095-0.147, at 2.0 m 0.375-0.625

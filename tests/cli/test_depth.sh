@@ -89,10 +89,10 @@ grep -o '"confident_wrong": {[^}]*}' "$dir/pjump-0-2.0.json" >"$dir/cwp2.json" |
     fail "pjump at 2.0 m: no confident_wrong"
 v=$(json_num "$dir/cwp2.json" head)
 le "$v" 0.34 || fail "pjump at 2.0 m: valid head reports with no head within 10 cm: '$v', above 0.34"
-# pjump turned +35 degrees at 3.2 m, in full view: its head leaning towards the camera lies 11-16
-# cm to the side of the centroid in the image and across the body (frames 117-126); at HEAD_ASIDE
-# for every head it was left unlabelled, at ARM_SIDE with the silhouette clear of the top edge it
-# is found: heads 0.793 -> 0.891 (label.c, 2026-12-07).
+# pjump turned +35 degrees at 3.2 m, in full view: its neck, leaning towards the camera and
+# turned, lies more than 8 cm to the side of the centroid in much of the take (at +20 degrees,
+# frames 117-126, 11-16 cm); at HEAD_ASIDE for every head it was left unlabelled, at ARM_SIDE with
+# the silhouette clear of the top edge it is found: heads 0.793 -> 0.891 (label.c, 2026-12-07).
 check pjump 35  :       0.89 0.82 0.99 0.90  0.02  3.2
 # At 2.0 m the image's bottom edge cuts samba's legs 4-27 cm above the floor: no foot is in view,
 # but the cut legs were reported as valid feet, 0.68 of them with no foot within 10 cm. A leg cut
