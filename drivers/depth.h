@@ -13,8 +13,8 @@
  *   label.c     head / lhand / rhand / lfoot / rfoot by a cost assignment in that body frame that
  *               includes the previous frame's markers (temporal consistency), with a confidence
  *               per marker; a hand (foot) pair whose swap costs little has an uncertain side and is
- *               not reported valid (drv_depth_result.side_uncertain), nor is a hand or foot
- *               that is inferred rather than seen (.inferred, markers.c);
+ *               not reported valid (drv_depth_result.side_uncertain), nor is a head, hand or
+ *               foot that is inferred rather than seen (.inferred, markers.c);
  *   head_axis.c, head_crown.c  the head marker: the top of the head on its axis, from its
  *               silhouette; or, when an arm before the head cuts its top off from the face, that
  *               top, an extremum of its own;
@@ -139,8 +139,10 @@ typedef struct drv_depth_result {
                                          nearer the centroid than a shoulder and an upper arm
                                          (a person seen down to the floor); or a foot not seen:
                                          its leg is cut by the image's bottom edge above the
-                                         ankle. xyz is a guess, not a measurement, and valid
-                                         is 0 */
+                                         ankle; or a head cut by the image's top edge wider
+                                         than a head is long, or whose neck lies more than 8 cm
+                                         off the body's mid-plane (label.c HEAD_ASIDE). xyz
+                                         is a guess, not a measurement, and valid is 0 */
     float conf[DRV_DEPTH_NLABELS];    /* 0..1 */
     int nextrema;                     /* accumulative geodesic extrema found, followed by the hands
                                          estimated from arm loops (geodesic 0), up to the max */
