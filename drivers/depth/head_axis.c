@@ -8,18 +8,35 @@
  * a head's depth) is right for the first and wrong for the second: pjump leaning 34 cm towards
  * the camera was 13-18 cm off (docs/PERFORMANCE.md).
  *
- * What holds in both: seen across its axis, a head or a neck is round, so the outermost cells of
- * each image row that crosses it - its silhouette, left and right - lie at the depth of its axis,
- * whichever way it faces (a ball's or a cylinder's contour generator is the circle through its
- * centre, perpendicular to the ray), and midway between them lies the axis. So:
- *   1. a = the head's direction, from its anchor (geodesic.c: back along its path, on the neck
- *      or upper chest) to its tip; the head's cells are the person's cells within HEAD_REACH of
- *      the extremum, in space and in geodesic distance from the centroid (not a hand held
- *      beside the head: its path is longer);
+ * What holds in both: seen across its axis, a head or a neck is round, so its silhouette in each
+ * image row that crosses it, left and right, lies at the depth of its axis, whichever way it
+ * faces (a ball's or a cylinder's contour generator is the circle through its centre,
+ * perpendicular to the ray), and midway between them lies the axis. So:
+ *   1. a = the head's direction, from the centroid to its tip (the trunk and the neck: the
+ *      longest baseline there is). Not from the extremum's anchor (geodesic.c, 0.3 m back along
+ *      its path): a neck foreshortened towards the camera is shorter than that, and its anchor
+ *      lies on a shoulder - pjump landing bent forward, frames 121-126, anchors 7-15 cm to one
+ *      side or the other, a tilted 23-32 degrees from frame to frame, the marker's x with it.
+ *      The head's cells are the person's cells within HEAD_REACH of the extremum, in space and
+ *      in geodesic distance from the centroid (not a hand held beside the head: its path is
+ *      longer);
  *   2. top = the highest of them along a;
  *   3. in every grid row, the leftmost and rightmost head cell within HEAD_SPAN below the top:
- *      their mean is a point on the axis, at its depth;
- *   4. the marker: that point moved along a up to the top.
+ *      their mean, pushed back along its viewing ray (below), is a point on the axis, at its
+ *      depth;
+ *   4. the marker: the mean of those points moved along a up to the top.
+ * The outermost head cell of a row is not the silhouette itself: a cell's reading is the nearest
+ * of its four probes, a quarter and three quarters of the cell across (segment.c), and the
+ * silhouette lies beyond the outermost probe that hits the head by up to half a cell; on a
+ * convex head the inner probe of the rim cell is the nearer one whenever both hit. The rim's
+ * reading lies on average d = half a cell inside the silhouette, on a section of radius r =
+ * w + d about the axis (w: half the row's width between its rims), where the surface is
+ * sqrt(r^2 - w^2) = sqrt(2 w d + d^2) nearer than the axis - 3.5 cm for a 14 cm wide head at
+ * 2.5 m. Without it every head was placed 4-7 cm too near the camera (samba, the SMPL takes);
+ * with it and the direction from the centroid, the median head error over samba's grid is
+ * 2.4-4.3 cm, not 5.5-8.2, and over pjump's 3.6-6.9, not 4.2-7.1 (docs/PERFORMANCE.md, "The head
+ * on its axis: its direction from the centroid"). A row wider than a head is long (HEAD_REACH)
+ * runs through the shoulders, not across a head: no correction.
  * A row whose end meets a nearer surface (an arm raised in front of the head: the SMPL man's
  * lambada turned -20 degrees, the visible head a 7 cm sliver) does not end at the head's
  * silhouette; the head is then placed as before, half a head behind its visible top
@@ -71,7 +88,8 @@ static int occluded(const drv__grid *g, int c, int step, float jump)
 int drv__head_on_axis(const drv__grid *g, const drv__geodesic *ge, const drv_depth_opts *o,
                       const drv__extremum *x, float p[3])
 {
-    float a[3] = {x->tip[0] - x->anchor[0], x->tip[1] - x->anchor[1], x->tip[2] - x->anchor[2]};
+    const float *c0 = g->centroid;
+    float a[3] = {x->tip[0] - c0[0], x->tip[1] - c0[1], x->tip[2] - c0[2]};
     const float n = sqrtf(along(a, a));
     if (!(n > 0.05f)) /* no direction to speak of */
         return 0;
@@ -93,7 +111,8 @@ int drv__head_on_axis(const drv__grid *g, const drv__geodesic *ge, const drv_dep
                 top = fmaxf(top, along(g->P + 3 * c, a));
         }
     double m[3] = {0, 0, 0};
-    int rims = 0;
+    int rows = 0;
+    const float rim_in = 0.5f * cell; /* metres: the rim's reading inside the silhouette */
     for (int yy = y0; yy <= y1; yy++) {
         int lo = -1, hi = -1;
         for (int xx = x0; xx <= x1; xx++) {
@@ -108,14 +127,20 @@ int drv__head_on_axis(const drv__grid *g, const drv__geodesic *ge, const drv_dep
             continue;
         if (occluded(g, lo, -1, jump) || occluded(g, hi, +1, jump))
             return 0; /* part of the head is hidden: its silhouette is not its own */
+        /* the rims' mid-point, pushed back to the axis's depth along its ray (see the header) */
+        const float *pl = g->P + 3 * lo, *ph = g->P + 3 * hi;
+        const float q[3] = {0.5f * (pl[0] + ph[0]), 0.5f * (pl[1] + ph[1]), 0.5f * (pl[2] + ph[2])};
+        const float dx = ph[0] - pl[0], dz = ph[2] - pl[2], hw = 0.5f * sqrtf(dx * dx + dz * dz);
+        const float back = 2.f * hw > HEAD_REACH ? 0.f : sqrtf(2.f * hw * rim_in + rim_in * rim_in);
+        const float s = 1.f + back / sqrtf(along(q, q));
         for (int i = 0; i < 3; i++)
-            m[i] += g->P[3 * lo + i] + g->P[3 * hi + i];
-        rims += 2;
+            m[i] += q[i] * s;
+        rows++;
     }
-    if (!rims)
+    if (!rows)
         return 0;
     for (int i = 0; i < 3; i++)
-        p[i] = (float)(m[i] / rims);
+        p[i] = (float)(m[i] / rows);
     const float up = top - along(p, a);
     for (int i = 0; i < 3; i++)
         p[i] += up * a[i];

@@ -147,4 +147,14 @@ grep -o '"confident_wrong": {[^}]*}' "$dir/lambada@-20.json" >"$dir/cw.json" ||
     fail "lambada@-20: no confident_wrong"
 v=$(json_num "$dir/cw.json" head)
 le "$v" 0.03 || fail "lambada@-20: valid head reports with no head within 10 cm: '$v', above 0.03"
+# the head's median error (metres): each row's rims pushed back by their depth inside the
+# silhouette, the head's direction from the centroid (head_axis.c; 2026-12-07): hop 0.052 ->
+# 0.032, run 0.078 -> 0.058, lambada 0.051 -> 0.027
+for tw in hop@0:0.033 run@0:0.059 lambada@0:0.028; do
+    t=${tw%:*} want=${tw##*:}
+    grep -o '"error_m": {"head": {[^}]*}' "$dir/$t.json" >"$dir/hm.json" ||
+        fail "$t: no error_m for the head"
+    v=$(json_num "$dir/hm.json" median)
+    le "$v" "$want" || fail "$t: the head's median error is '$v' m, above $want"
+done
 echo "depth smpl: ok"
