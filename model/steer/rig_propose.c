@@ -52,7 +52,14 @@
  *      pelvis = the front-most (along f) vertex of the feet's mid-line whose distances to the
  *      head and to the feet differ least (within 0.02 R: half-way between head and feet, on the
  *      belly); neck = the front-most vertex of the hands' mid-line at 0.30..0.36 of the head's
- *      distance to the pelvis from the head (the base of the neck).
+ *      distance to the pelvis from the head (the base of the neck), measured from the pelvis
+ *      (0.64..0.70 of it, and nearer the head than the pelvis is): the head's tip sits on a flat
+ *      top (a crown, a cut neck) and moves over it with the pose, and a band measured from it
+ *      moves too (pjump frame 132: the tip 12 cm down the front of the neck, the band reached the
+ *      cut's top rim, and the neck proposed from that frame lay 34.8 cm from the medoid's; 18.3 cm
+ *      measured from the pelvis). One frame alone, every frame: samba's neck median / p90 / max
+ *      1.6 / 4.3 / 5.0 -> 1.6 / 2.5 / 4.0 cm from the medoid's, pjump's 4.5 / 8.9 / 34.8 -> 4.3
+ *      / 8.4 / 18.3 cm.
  *      Quadruped: withers = the middle of the top (within 0.03 R of the highest, along up) of
  *      the slab, 0.03 R thick across f, through the front legs' roots; croup = the vertex, on the
  *      shortest path from the tail's tip to the withers (along the rump and the back), of least
@@ -577,11 +584,15 @@ static int propose_human(prop *p, work *w, int *tips, mdl_rig **out, mdl_rig_pro
     int pelvis = front_most(p, w->sel, fwd);
     if (pelvis < 0)
         return mdl__err(err, -EINVAL, "rig: found no pelvis on the mid-line between the feet");
-    /* neck: on the hands' mid-line, about a third of the way from the head to the pelvis */
+    /* neck: on the hands' mid-line, about a third of the way from the head to the pelvis,
+     * measured from the pelvis (step 6) */
     double dp = Dh[pelvis];
+    double *Dp = w->near; /* scratch: the tips are found */
+    if ((e = geodesic(p, pelvis, Dp, err)) != 0)
+        return e;
     for (int v = 0; v < p->nv; v++)
         w->sel[v] = p->part[v] && fabs(Dlh[v] - Drh[v] - dh0) <= wid &&
-                    Dh[v] >= NECK_LO * dp && Dh[v] <= NECK_HI * dp;
+                    Dp[v] >= (1 - NECK_HI) * dp && Dp[v] <= (1 - NECK_LO) * dp && Dh[v] < dp;
     int neck = front_most(p, w->sel, fwd);
     if (neck < 0 || pelvis < 0)
         return mdl__err(err, -EINVAL, "rig: found no neck or pelvis on the mid-line");
