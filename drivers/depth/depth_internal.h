@@ -26,7 +26,8 @@ typedef struct drv__grid {
     int *c_count;    /*    cells, */
     int *c_first;    /*    its first and last cell (the smallest and largest index) */
     int *c_last;
-    int32_t *hole;   /* n: background cells enclosed by the person: hole id, -1 = not a hole */
+    int32_t *hole;   /* n: cells enclosed by the person: hole id (>= 0); else -1, -2 (outside)
+                        or -3 (a person cell that closes holes); drv__segment_arm_loops */
     int *hole_cells; /* n: scratch, the cells of the hole being measured */
     float centroid[3]; /* mean of the person's cells */
     float mean_z;
@@ -53,7 +54,8 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o);
 
 /* Hands closing a loop with the torso (hands on the hips): the background the person encloses
  * (4-connected non-person cells that do not reach the image border) forms holes; a hole of arm-loop
- * size beside the torso, between hip and chest height, yields a hand candidate (see segment.c).
+ * size beside the torso, between hip and chest height, yields a hand candidate; on a side without
+ * one, so does a slit, a loop closed across an occluding edge (max_jump; see segment.c).
  * up/right: body frame as in drv__label_assign. Appends at most `max` candidates to ex (loop =
  * +1 / -1 for a hole on the camera's +X / -X side) and returns how many. */
 int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
@@ -82,7 +84,9 @@ struct drv__extremum {
                          line: too few), */
     float loop_slope; /*   the line's depth change per metre across the image from the elbow
                            to the contact (< 0: the forearm comes towards the camera), */
-    float loop_z;     /*   and its depth at the contact (metres along the axis) */
+    float loop_z;     /*   and its depth at the contact (metres along the axis), */
+    int loop_slit;    /*   1 when the loop is closed by an occluding edge (the forearm in front
+                           of the torso), not by background */
     float path_hmax;  /* the highest point (metres above the source, along `up`) of its shortest
                          path from the source: an arm's path climbs to the shoulder, a leg's not */
     float path_lmax;  /* the farthest its shortest path from the source goes to either side

@@ -29,6 +29,19 @@
  *    away from the hole's middle (at least LOOP_RIM_MIN of them, between O and B): its slope
  *    (depth per metre across the image) and its depth at B go with the hand (markers.c places it
  *    in front of the body or behind the hip from them).
+ *    Slits: a person turned side-on with a hand on the near hip holds the forearm in front of the
+ *    torso's side, and no background shows between them: the arm and the torso close the loop
+ *    across an occluding edge, where the geodesic graph has no edge (a depth step over max_jump,
+ *    geodesic.c), not around a hole. On a side where no hole of background gave a hand, a second
+ *    pass also counts as open the person cells on either side of such a step (both sides, so
+ *    that a diagonal edge's cells are 4-connected) and looks for holes again, measured as above;
+ *    such a slit must span LOOP_SLIT (0.2 m) along up: from the upper arm down the forearm to the
+ *    hip it is longer (samba at -58 degrees, hand on the hip: 0.21-0.34 m), while an upper arm
+ *    held before the chest leaves short ones (pjump facing: 0.07-0.18 m, hands 11-22 cm off when
+ *    taken). The first pass alone sees background holes: the slit pass would open a loop whose
+ *    hand is behind the hip (the arm behind the torso, a step at the contact) to the outside.
+ *    A slit's hand is a guess - the hand itself is not told from the hip it rests on - and is
+ *    reported inferred (markers.c).
  */
 #include "depth_internal.h"
 
@@ -450,9 +463,14 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
 #define LOOP_DEPTH 0.25f
 #define LOOP_MAX_HOLES 64
 #define LOOP_RIM_MIN 3.f /* rim cells for the forearm's depth line */
+#define LOOP_SLIT 0.2f   /* metres along up: the shortest slit (see the header) */
+#define SOLID (-3)       /* drv__grid.hole: a person cell that closes holes */
 
-int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
-                           const float right[3], drv__extremum *ex, int max)
+/* One pass of drv__segment_arm_loops: slit = 0 finds holes of background; slit = 1 also counts as
+ * open the person cells on either side of an occluding edge (slits), needs every hole to span
+ * LOOP_SLIT along up and skips the sides skip[0] (-X) and skip[1] (+X). */
+static int find_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
+                      const float right[3], int slit, const int skip[2], drv__extremum *ex, int max)
 {
     const int gw = g->gw, gh = g->gh;
     if (g->ncells == 0 || max <= 0)
@@ -475,15 +493,26 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
     y0 = y0 > 0 ? y0 - 1 : 0;
     x1 = x1 < gw - 1 ? x1 + 1 : gw - 1;
     y1 = y1 < gh - 1 ? y1 + 1 : gh - 1;
-    /* the outside: flood from the box's rim through non-person cells (4-neighbour); -2 = outside.
-     * The stack holds y << 16 | x (no division per cell). */
+    /* open cells (-1): not the person's, or, for slits, the person's on either side of a depth
+     * step over max_jump (the geodesic graph has no edge across it); the rest SOLID. The outside:
+     * flood from the box's rim through open cells (4-neighbour); -2 = outside. The stack holds
+     * y << 16 | x (no division per cell). */
     int top = 0;
+    const float jump = o->max_jump;
     for (int y = y0; y <= y1; y++) {
         const int rim = y == y0 || y == y1;
         for (int x = x0; x <= x1; x++) {
             int i = y * gw + x;
-            g->hole[i] = -1;
-            if (!g->person[i] && (rim || x == x0 || x == x1)) {
+            g->hole[i] = g->person[i] ? SOLID : -1;
+            if (slit && g->person[i]) {
+                const float zi = g->z[i];
+                if ((x > 0 && g->person[i - 1] && fabsf(g->z[i - 1] - zi) > jump) ||
+                    (x < gw - 1 && g->person[i + 1] && fabsf(g->z[i + 1] - zi) > jump) ||
+                    (y > 0 && g->person[i - gw] && fabsf(g->z[i - gw] - zi) > jump) ||
+                    (y < gh - 1 && g->person[i + gw] && fabsf(g->z[i + gw] - zi) > jump))
+                    g->hole[i] = -1;
+            }
+            if (g->hole[i] == -1 && (rim || x == x0 || x == x1)) {
                 g->hole[i] = -2;
                 g->stack[top++] = y << 16 | x;
             }
@@ -491,19 +520,19 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
     }
     while (top) {
         const int p = g->stack[--top], x = p & 0xffff, y = p >> 16, j = y * gw + x;
-        if (x < x1 && !g->person[j + 1] && g->hole[j + 1] == -1) {
+        if (x < x1 && g->hole[j + 1] == -1) {
             g->hole[j + 1] = -2;
             g->stack[top++] = p + 1;
         }
-        if (x > x0 && !g->person[j - 1] && g->hole[j - 1] == -1) {
+        if (x > x0 && g->hole[j - 1] == -1) {
             g->hole[j - 1] = -2;
             g->stack[top++] = p - 1;
         }
-        if (y < y1 && !g->person[j + gw] && g->hole[j + gw] == -1) {
+        if (y < y1 && g->hole[j + gw] == -1) {
             g->hole[j + gw] = -2;
             g->stack[top++] = p + (1 << 16);
         }
-        if (y > y0 && !g->person[j - gw] && g->hole[j - gw] == -1) {
+        if (y > y0 && g->hole[j - gw] == -1) {
             g->hole[j - gw] = -2;
             g->stack[top++] = p - (1 << 16);
         }
@@ -526,7 +555,7 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
     for (int y = y0, x = x0; y <= y1 && nh < LOOP_MAX_HOLES;
          x = x < x1 ? x + 1 : x0, y += x == x0) {
         const int s0 = y * gw + x;
-        if (g->person[s0] || g->hole[s0] != -1)
+        if (g->hole[s0] != -1)
             continue;
         int id = nh++, count = 0, b = s0, oc = s0;
         float bh = FLT_MAX, ol = 0, su = 0, sv = 0, zlo = FLT_MAX, zhi = 0;
@@ -542,7 +571,7 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
                 if (xx < 0 || yy < 0 || xx >= gw || yy >= gh)
                     continue;
                 int i = yy * gw + xx;
-                if (g->person[i]) { /* the loop's rim */
+                if (g->hole[i] == SOLID) { /* the loop's rim */
                     const float zi = g->z[i];
                     zlo = zi < zlo ? zi : zlo;
                     zhi = zi > zhi ? zi : zhi;
@@ -561,7 +590,20 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
         float side = (hu * rx + hv * ry) * cell_m, height = (hu * ux + hv * uy) * cell_m;
         if (fabsf(side) < 0.06f || fabsf(side) > 0.45f || height < -0.25f || height > 0.45f)
             continue;
+        if (skip[side > 0])
+            continue;
         float sg = side > 0 ? 1.f : -1.f;
+        if (slit) { /* a slit runs from the upper arm down the forearm to the hip */
+            float hlo = FLT_MAX, hhi = -FLT_MAX;
+            for (int k = 0; k < count; k++) {
+                const int i = g->hole_cells[k];
+                const float h = ((float)(i % gw) - cu) * ux + ((float)(i / gw) - cv) * uy;
+                hlo = h < hlo ? h : hlo;
+                hhi = h > hhi ? h : hhi;
+            }
+            if ((hhi - hlo + 1.f) * cell_m < LOOP_SLIT)
+                continue;
+        }
         /* B: the lowest cell; O: the one farthest to the side (second pass over the hole) */
         for (int k = 0; k < count; k++) {
             int i = g->hole_cells[k];
@@ -609,7 +651,7 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
             const int j = g->hole_cells[k], x = j % gw, y = j / gw;
             for (int d = 0; d < 4; d++) {
                 const int xx = x + d4[d][0], yy = y + d4[d][1];
-                if (xx < 0 || yy < 0 || xx >= gw || yy >= gh || !g->person[yy * gw + xx])
+                if (xx < 0 || yy < 0 || xx >= gw || yy >= gh || g->hole[yy * gw + xx] != SOLID)
                     continue;
                 const float px = (float)xx - ox, py = (float)yy - oy;
                 const float t = (px * cx + py * cy) / c2;
@@ -634,10 +676,25 @@ int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up
         }
         e->cell = tip;
         e->loop = side > 0 ? 1 : -1;
+        e->loop_slit = slit;
         memcpy(e->tip, g->P + 3 * tip, sizeof e->tip);
         memcpy(e->anchor, e->tip, sizeof e->anchor);
         if (nout == max)
             break;
     }
     return nout;
+}
+
+int drv__segment_arm_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
+                           const float right[3], drv__extremum *ex, int max)
+{
+    static const int none[2] = {0, 0};
+    int n = find_loops(g, o, up, right, 0, none, ex, max);
+    if (n < max) { /* then slits, on a side without a hole */
+        int taken[2] = {0, 0};
+        for (int i = 0; i < n; i++)
+            taken[ex[i].loop > 0] = 1;
+        n += find_loops(g, o, up, right, 1, taken, ex + n, max - n);
+    }
+    return n;
 }
