@@ -152,8 +152,9 @@ le "$v" 0.1 || fail "samba -20: valid hand reports with no hand within 10 cm: '$
 
 # The yaw turns the first frame; samba turns by up to 38 degrees on her own towards her last
 # frames (the torso's turn, averaged over 1 s), so the -20 degree row above sees her at down to
-# -58 in its last third (hands 0.731 there before the slits, 0.843 after). With her own turns undone (--hold-facing) the torso is
-# at -20 degrees in every frame: measured 0.977 / 0.989 / 0.896, side 0.944 (2026-12-03).
+# -58 in its last third (hands 0.731 there before the slits, 0.843 after). With her own turns
+# undone (--hold-facing) the torso is at -20 degrees in every frame: measured 0.977 / 0.989 /
+# 0.896, side 0.944 (2026-12-03).
 hold=1
 check samba -20 :       0.95 0.95 0.86 0.91  0.02
 v=$(tr -d ' \n' <"$dir/samba--20-2.5-held.json" | grep -o '"own_turn_deg":\[[-0-9.]*' | grep -o '[-0-9.]*$')
