@@ -137,7 +137,9 @@ typedef struct drv_depth_result {
                                          behind a nearer surface at or above the elbow, the
                                          point labelled is not reached through an arm, or it is
                                          nearer the centroid than a shoulder and an upper arm
-                                         (a person seen down to the floor); or a foot not seen:
+                                         (a person seen down to the floor), or it comes from a
+                                         slit (the forearm in front of the torso, the hand on
+                                         the hip: segment.c); or a foot not seen:
                                          its leg is cut by the image's bottom edge above the
                                          ankle; or a head cut by the image's top edge wider
                                          than a head is long, or whose neck lies more than 8 cm
