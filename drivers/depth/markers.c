@@ -397,7 +397,9 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     int nex = drv__geodesic_extrema(&t->ge, g, &go, src, up, right, t->ex, t->o.max_extrema);
     for (int i = 0; i < nex; i++)
         t->ex[i].loop = 0;
-    nex += drv__segment_arm_loops(g, &go, up, right, t->ex + nex, 2);
+    /* the options' max_jump, not the graph's: a slit's step does not grow with distance
+       (segment.c) */
+    nex += drv__segment_arm_loops(g, &t->o, up, right, t->ex + nex, 2);
     r->nextrema = nex < DRV_DEPTH_MAX_EXTREMA ? nex : DRV_DEPTH_MAX_EXTREMA;
     for (int i = 0; i < r->nextrema; i++) {
         memcpy(r->extrema[i], t->ex[i].tip, sizeof r->extrema[i]);

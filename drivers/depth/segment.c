@@ -31,8 +31,14 @@
  *    in front of the body or behind the hip from them).
  *    Slits: a person turned side-on with a hand on the near hip holds the forearm in front of the
  *    torso's side, and no background shows between them: the arm and the torso close the loop
- *    across an occluding edge, where the geodesic graph has no edge (a depth step over max_jump,
- *    geodesic.c), not around a hole. On a side where no hole of background gave a hand, a second
+ *    across an occluding edge (a depth step over drv_depth_opts.max_jump, 0.08 m), not around a
+ *    hole. The step is the options' max_jump as given, not the geodesic graph's, which grows
+ *    with distance to three of the sensor's depth steps (markers.c; 0.088 m at 3.2 m, 0.105 m at
+ *    3.5 m) so that a slope's quantised depth stays connected: a forearm's edge against the hip
+ *    does not step farther at a greater distance, and with the graph's threshold samba's slits
+ *    at -58 degrees broke into pieces of 0.14-0.16 m at 3.2 m (docs/PERFORMANCE.md). Between the
+ *    two thresholds the graph still has an edge; the slit pass reads only this step. On a side
+ *    where no hole of background gave a hand, a second
  *    pass also counts as open the person cells on either side of such a step (both sides, so
  *    that a diagonal edge's cells are 4-connected) and looks for holes again, measured as above;
  *    such a slit must span LOOP_SLIT (0.2 m) along up: from the upper arm down the forearm to the
@@ -494,7 +500,7 @@ static int find_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
     x1 = x1 < gw - 1 ? x1 + 1 : gw - 1;
     y1 = y1 < gh - 1 ? y1 + 1 : gh - 1;
     /* open cells (-1): not the person's, or, for slits, the person's on either side of a depth
-     * step over max_jump (the geodesic graph has no edge across it); the rest SOLID. The outside:
+     * step over max_jump (see the header); the rest SOLID. The outside:
      * flood from the box's rim through open cells (4-neighbour); -2 = outside. The stack holds
      * y << 16 | x (no division per cell). */
     int top = 0;
@@ -593,18 +599,8 @@ static int find_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
         if (skip[side > 0])
             continue;
         float sg = side > 0 ? 1.f : -1.f;
-        if (slit) { /* a slit runs from the upper arm down the forearm to the hip */
-            float hlo = FLT_MAX, hhi = -FLT_MAX;
-            for (int k = 0; k < count; k++) {
-                const int i = g->hole_cells[k];
-                const float h = ((float)(i % gw) - cu) * ux + ((float)(i / gw) - cv) * uy;
-                hlo = h < hlo ? h : hlo;
-                hhi = h > hhi ? h : hhi;
-            }
-            if ((hhi - hlo + 1.f) * cell_m < LOOP_SLIT)
-                continue;
-        }
         /* B: the lowest cell; O: the one farthest to the side (second pass over the hole) */
+        float hh = -FLT_MAX; /* the highest cell's height */
         for (int k = 0; k < count; k++) {
             int i = g->hole_cells[k];
             float du = (float)(i % gw) - cu, dv = (float)(i / gw) - cv;
@@ -613,11 +609,15 @@ static int find_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
                 bh = h;
                 b = i;
             }
+            hh = h > hh ? h : hh;
             if (l > ol) {
                 ol = l;
                 oc = i;
             }
         }
+        /* a slit runs from the upper arm down the forearm to the hip */
+        if (slit && (hh - bh + 1.f) * cell_m < LOOP_SLIT)
+            continue;
         float fu = (float)(b % gw - oc % gw), fv = (float)(b / gw - oc / gw);
         float fn = sqrtf(fu * fu + fv * fv);
         if (fn < 1.f)
