@@ -83,7 +83,10 @@ typedef struct drv_depth_opts {
     int step_min, step_max;
     float z_min, z_max;    /* depth gate, metres */
     float max_jump;        /* geodesic graph: neighbouring cells whose depths differ by less
-                              than this (metres) are joined by their 3D distance ... */
+                              than this (metres; raised at a distance to three of the sensor's
+                              depth steps there) are joined by their 3D distance. As given, not
+                              raised, a step over it is an occluding edge that can close an arm
+                              loop (a slit, segment.c) ... */
     float seg_jump;        /* ... those differing by less than this (and by more than max_jump)
                               belong to the same person (segmentation) and are joined with
                               jump_penalty metres added: a dress hem in front of the legs, a

@@ -38,9 +38,9 @@
  *    does not step farther at a greater distance, and with the graph's threshold samba's slits
  *    at -58 degrees broke into pieces of 0.14-0.16 m at 3.2 m (docs/PERFORMANCE.md). Between the
  *    two thresholds the graph still has an edge; the slit pass reads only this step. On a side
- *    where no hole of background gave a hand, a second
- *    pass also counts as open the person cells on either side of such a step (both sides, so
- *    that a diagonal edge's cells are 4-connected) and looks for holes again, measured as above;
+ *    where no hole of background gave a hand, a second pass also counts as open the person cells
+ *    on either side of such a step (both sides, so that a diagonal edge's cells are 4-connected)
+ *    and looks for holes again, measured as above;
  *    such a slit must span LOOP_SLIT (0.2 m) along up: from the upper arm down the forearm to the
  *    hip it is longer (samba at -58 degrees, hand on the hip: 0.21-0.34 m), while an upper arm
  *    held before the chest leaves short ones (pjump facing: 0.07-0.18 m, hands 11-22 cm off when
