@@ -117,6 +117,8 @@ typedef struct drv_depth_opts {
     double oe_min_cutoff;  /* One Euro: minimum cutoff frequency (Hz) */
     double oe_beta;        /* One Euro: speed coefficient (s/m) */
     double oe_dcutoff;     /* One Euro: cutoff for the derivative (Hz) */
+    double oe_head_beta;    /* the head's own speed coefficient (s/m) and derivative cutoff */
+    double oe_head_dcutoff; /* (Hz): it follows motion faster than a hand (markers.c) */
     int hold_frames;       /* frames a lost marker keeps its last position (reported invalid) */
     uint64_t seed;         /* RANSAC random seed (results are deterministic per seed) */
 } drv_depth_opts;

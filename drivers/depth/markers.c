@@ -20,6 +20,20 @@
  * 0.440, run 0.402 -> 0.461. Heads and feet were tried too and are not restarted: heads lost up
  * to one of 11 at 2.0 m and valid wrong heads at 2.5 m rose 0.01-0.03; feet changed only at 2.0
  * m, where the valid wrong ones (legs cut by the image's bottom edge) rose (docs/PERFORMANCE.md).
+ * The head's filter follows motion faster than the others' (oe_head_beta 32 s/m and
+ * oe_head_dcutoff 2 Hz against oe_beta 8 and oe_dcutoff 1; the same min_cutoff at rest). One Euro
+ * trades jitter at rest against lag in motion through the derivative it estimates (one_euro.c),
+ * and the head's measurement is less noisy than a hand's or a foot's: a hand or foot is the mean
+ * of a tip's few cells, the head an axis through every row of its silhouette (head_axis.c). Its
+ * unfiltered frame-to-frame jitter at the default placement is about half theirs on samba (median
+ * 9.3 mm against 17-24 mm for the hands and 12-14 mm for the feet), so its speed is trusted sooner.
+ * With the hands' constants, pjump landing from a jump bent towards the camera (frames 120-126)
+ * had its filtered head 1-5 cm behind its measurement, which is 9-10 cm from the truth there (the
+ * neck's flat cut, head_axis.c): unfiltered, its heads at the default placement were 0.922 within
+ * 10 cm, filtered 0.844. Filtered faster: 0.906, and pjump's heads rose in 13 of the 20 cells of
+ * its grid (yaw -35..35, 2.0-3.5 m; fell in two at 2.0 m, one head of 11 each); samba's moved by
+ * one head in two cells; samba's head jitter, median 3.4 -> 4.4 mm (its hands' 12-13 mm);
+ * docs/PERFORMANCE.md, "The head's filter follows motion faster".
  * The person's head length (centroid-to-head geodesic) is measured on the frames with the head
  * in full view (no extremum on the image's top edge: else a shoulder under a head out of view may
  * be labelled), so that a head cut a little short by the image's top edge is still found
@@ -197,6 +211,8 @@ void drv_depth_opts_default(drv_depth_opts *o)
     o->oe_min_cutoff = 1.5;
     o->oe_beta = 8.0;
     o->oe_dcutoff = 1.0;
+    o->oe_head_beta = 32.0;
+    o->oe_head_dcutoff = 2.0;
     o->hold_frames = 15;
     o->seed = 0x6d657368u;
 }
@@ -207,7 +223,7 @@ int drv_depth_tracker_create(const drv_depth_opts *o, drv_depth_tracker **out, c
     if (!(o->k.fx > 0) || !(o->k.fy > 0) || !(o->z_max > o->z_min) || !(o->max_jump > 0) || o->seg_jump < o->max_jump || o->jump_penalty < 0 ||
         o->max_extrema < 1 || o->max_extrema > DRV_DEPTH_MAX_EXTREMA || !(o->floor_tol > 0) ||
         o->floor_iters < 0 || o->hold_frames < 0 || !(o->oe_min_cutoff > 0) || o->oe_beta < 0 ||
-        !(o->oe_dcutoff > 0)) {
+        !(o->oe_dcutoff > 0) || o->oe_head_beta < 0 || !(o->oe_head_dcutoff > 0)) {
         if (err)
             snprintf(err, DRV_ERR_LEN,
                      "depth tracker: bad options (fx %g, fy %g, depth gate %g..%g m, max_jump %g, "
@@ -232,7 +248,9 @@ int drv_depth_tracker_create(const drv_depth_opts *o, drv_depth_tracker **out, c
     }
     for (int l = 0; l < DRV_DEPTH_NLABELS; l++)
         for (int a = 0; a < 3; a++)
-            drv_one_euro_init(&t->f[l][a], o->oe_min_cutoff, o->oe_beta, o->oe_dcutoff);
+            drv_one_euro_init(&t->f[l][a], o->oe_min_cutoff,
+                              l == DRV_DEPTH_HEAD ? o->oe_head_beta : o->oe_beta,
+                              l == DRV_DEPTH_HEAD ? o->oe_head_dcutoff : o->oe_dcutoff);
     drv_depth_tracker_reset(t);
     *out = t;
     return 0;

@@ -70,12 +70,16 @@ check() {
 # camera, its centre 6 cm below and 7 cm nearer than a head's top would be; the filter's lag on
 # the landing adds 1-3 cm). That bound is lowered to what is reached; the median head errors
 # below (0.075 and 0.042 m before) hold the gain.
+# The head's filter follows motion faster than the hands' and feet's (oe_head_beta 32 s/m,
+# oe_head_dcutoff 2 Hz; markers.c; 2026-12-07): the landing's lag is gone, pjump's heads facing
+# 0.844 -> 0.906 (the issue's 0.9), at +20 degrees 0.875 -> 0.938, at -20 0.862 -> 0.908, and its
+# head's median error at +20 degrees 0.037 -> 0.030 m.
 #      seq   yaw frames  head hand foot side  side_wrong [distance]
 check samba 0   :       0.95 0.9  0.9  0.9   0.02
-check pjump 0   :       0.84 0.9  0.95 0.94  0.02
+check pjump 0   :       0.90 0.9  0.95 0.94  0.02
 check samba 20  :       0.95 0.95 0.85 0.9   0.02
-check pjump 20  :       0.87 0.93 0.95 0.96  0.02
-check pjump -20 :       0.80 0.85 0.95 0.9   0.02
+check pjump 20  :       0.93 0.93 0.95 0.96  0.02
+check pjump -20 :       0.90 0.85 0.95 0.9   0.02
 check samba 0   :       0.9  0.9  -    0.9   0.02  2.0
 # the head's median error (metres) at two of those placements
 head_median() { # head_median JSON MAX NAME
@@ -85,7 +89,7 @@ head_median() { # head_median JSON MAX NAME
     le "$v" "$2" || fail "$3: the head's median error is '$v' m, above $2"
 }
 head_median "$dir/samba-0-2.5.json" 0.039 "samba facing at 2.5 m"
-head_median "$dir/pjump-20-2.5.json" 0.038 "pjump at +20 degrees"
+head_median "$dir/pjump-20-2.5.json" 0.030 "pjump at +20 degrees"
 # pjump turned -35 degrees at 2.5 m: its head, lost from view (under the image's top edge or
 # turned away) and back elsewhere, was held off by its stale position for up to 15 frames. A
 # head lost n frames ago is now looked for within sqrt(n + 1) frames' steps of where it was
@@ -96,22 +100,24 @@ head_median "$dir/pjump-20-2.5.json" 0.038 "pjump at +20 degrees"
 # 0.266 -> 0.167 here, and 0.705 -> 0.438 at 2.0 m facing, where the top edge cuts pjump's
 # chest while the performer jumps with the arms up (2026-12-06). A head whose anchor lies more
 # than HEAD_ASIDE (0.08 m) off the mid-plane is reported inferred (label.c, markers.c): 0.167 ->
-# 0.109 here, 0.438 -> 0.333 at 2.0 m facing; heads here 0.746 -> 0.761 (2026-12-07).
-check pjump -35 :       0.76 0.73 0.95 0.87  0.02
+# 0.109 here, 0.438 -> 0.333 at 2.0 m facing; heads here 0.746 -> 0.761 (2026-12-07). With the
+# head's faster filter (markers.c): heads here 0.791 -> 0.806, valid wrong ones 0.074 -> 0.018;
+# at 2.0 m facing 0.333 -> 0.250 (2026-12-07).
+check pjump -35 :       0.80 0.73 0.95 0.87  0.02
 grep -o '"confident_wrong": {[^}]*}' "$dir/pjump--35-2.5.json" >"$dir/cw35.json" ||
     fail "pjump at -35: no confident_wrong"
 v=$(json_num "$dir/cw35.json" head)
-le "$v" 0.11 || fail "pjump at -35: valid head reports with no head within 10 cm: '$v', above 0.11"
+le "$v" 0.02 || fail "pjump at -35: valid head reports with no head within 10 cm: '$v', above 0.02"
 check pjump 0   :       0.70 0.89 0.95 0.90  0.02  2.0
 grep -o '"confident_wrong": {[^}]*}' "$dir/pjump-0-2.0.json" >"$dir/cwp2.json" ||
     fail "pjump at 2.0 m: no confident_wrong"
 v=$(json_num "$dir/cwp2.json" head)
-le "$v" 0.34 || fail "pjump at 2.0 m: valid head reports with no head within 10 cm: '$v', above 0.34"
+le "$v" 0.26 || fail "pjump at 2.0 m: valid head reports with no head within 10 cm: '$v', above 0.26"
 # pjump turned +35 degrees at 3.2 m, in full view: its neck, leaning towards the camera and
 # turned, lies more than 8 cm to the side of the centroid in much of the take (at +20 degrees,
 # frames 117-126, 11-16 cm); at HEAD_ASIDE for every head it was left unlabelled, at ARM_SIDE with
 # the silhouette clear of the top edge it is found: heads 0.793 -> 0.891 (label.c, 2026-12-07).
-check pjump 35  :       0.89 0.82 0.99 0.90  0.02  3.2
+check pjump 35  :       0.92 0.82 0.99 0.90  0.02  3.2
 # At 2.0 m the image's bottom edge cuts samba's legs 4-27 cm above the floor: no foot is in view,
 # but the cut legs were reported as valid feet, 0.68 of them with no foot within 10 cm. A leg cut
 # above the ankle is now reported inferred (markers.c, ANKLE_HEIGHT): measured 0.29.
