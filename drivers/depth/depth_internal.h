@@ -66,6 +66,11 @@ double drv__rand01(uint64_t *s);
 
 /* ------------------------------------------------------------------ geodesic extrema (geodesic.c) */
 
+/* An arm loop's forearm whose depth falls faster than this across the image (depth per metre,
+ * tan 45 degrees) towards the contact comes towards the camera: its hand is held in front of the
+ * body, not rested on it (segment.c places it, markers.c gives it its depth) */
+#define DRV__LOOP_TOWARD 1.f
+
 struct drv__extremum {
     int cell;
     float geodesic;   /* metres from the nearest earlier source when found */
@@ -83,7 +88,8 @@ struct drv__extremum {
     int loop_rim;     /* then: the forearm's rim cells its depth line was fitted on (0 = no
                          line: too few), */
     float loop_slope; /*   the line's depth change per metre across the image from the elbow
-                           to the contact (< 0: the forearm comes towards the camera), */
+                           to the contact (< 0: the forearm comes towards the camera; at most
+                           -DRV__LOOP_TOWARD: its hand is held in front of the body), */
     float loop_z;     /*   and its depth at the contact (metres along the axis), */
     int loop_slit;    /*   1 when the loop is closed by an occluding edge (the forearm in front
                            of the torso), not by background */

@@ -75,22 +75,23 @@
  * fell on the SMPL takes too (walk 0.53 -> 0.30, lambada 0.20 -> 0.05), hands within 10 cm did not
  * move and side_correct fell by at most 0.015 (pjump facing at 2.0 m; at 2.5 m 0.961 -> 0.955).
  * A hand from an arm loop (segment.c) is a point on the visible surface a hand's length past where
- * the forearm meets the hip in the image; where the hand really is follows from the forearm's depth
- * along the loop's rim, elbow to contact (segment.c fits a line to it). A forearm that lies across
- * the body (its depth level, or coming towards the camera less steeply than 45 degrees: slope above
- * -LOOP_TOWARD) rests its hand on the hip, against the side or back of it: the hand is moved
- * LOOP_BEHIND = 8 cm back along the viewing ray, a little less than half a hip's depth (~0.2 m;
- * samba, hands on the hips/back: hand within 10 cm at yaw +20 0.83 -> 0.98, facing 0.91 -> 0.93;
- * its forearm slopes are -0.73 .. +0.29 at 2.5 m). A forearm that comes towards the camera more
- * steeply than that points at the camera, and its hand is held in front of the body, not on it: the
- * surface seen behind the hand's place is the belly, so the hand is put at the forearm's depth at
- * the contact instead (when nearer) - pjump, hands before the belly at yaw -20 (slopes -1.0 .. -4.1
- * at 3.2 m), was placed 12-23 cm too far, hands within 10 cm at 3.2 / 3.5 m 0.70 / 0.62 -> 0.75 /
- * 0.69; the SMPL man running 0.19 -> 0.30 facing at 2.5 m; no cell of samba, pjump or the SMPL
- * takes fell. The sign of the slope alone does not tell: samba's level forearms (slope -0.7 .. 0)
- * then lose their push, hands at yaw +20 0.97 -> 0.87. Extrapolating the forearm's line on by a
- * hand's length (5 or 10 cm along it) or putting the hand at the contact itself overshoots (pjump
- * -20, 3.5 m: 0.66, 0.64, 0.63).
+ * the forearm meets the hip in the image (or, for a forearm coming towards the camera, the far end
+ * of the forearm's own surface from the elbow); where the hand really is follows from the forearm's
+ * depth along the loop's rim, elbow to contact (segment.c fits a line to it). A forearm that lies
+ * across the body (its depth level, or coming towards the camera less steeply than 45 degrees:
+ * slope above -DRV__LOOP_TOWARD) rests its hand on the hip, against the side or back of it: the
+ * hand is moved LOOP_BEHIND = 8 cm back along the viewing ray, a little less than half a hip's
+ * depth (~0.2 m; samba, hands on the hips/back: hand within 10 cm at yaw +20 0.83 -> 0.98, facing
+ * 0.91 -> 0.93; its forearm slopes are -0.73 .. +0.29 at 2.5 m). A forearm that comes towards the
+ * camera more steeply than that points at the camera, and its hand is held in front of the body,
+ * not on it: the surface seen behind the hand's place is the belly, so the hand is put at the
+ * forearm's depth at the contact instead (when nearer) - pjump, hands before the belly at yaw -20
+ * (slopes -1.0 .. -4.1 at 3.2 m), was placed 12-23 cm too far, hands within 10 cm at 3.2 / 3.5 m
+ * 0.70 / 0.62 -> 0.75 / 0.69; the SMPL man running 0.19 -> 0.30 facing at 2.5 m; no cell of samba,
+ * pjump or the SMPL takes fell. The sign of the slope alone does not tell: samba's level forearms
+ * (slope -0.7 .. 0) then lose their push, hands at yaw +20 0.97 -> 0.87. Extrapolating the
+ * forearm's line on by a hand's length (5 or 10 cm along it) or putting the hand at the contact
+ * itself overshoots (pjump -20, 3.5 m: 0.66, 0.64, 0.63).
  * A hand from a slit (segment.c: the loop closed across an occluding edge, the forearm in front of
  * the torso) is placed the same way and reported inferred: the hand is not told from the hip it
  * rests on. Over both grids, own turns kept: hands within 10 cm at yaw -20 on samba (at down to
@@ -143,7 +144,6 @@
  * 0.068 m at 1.75 m. A leg that the image's bottom edge cuts higher than this is cut through the
  * shin, not the foot: the foot is below the image and is reported inferred (see the header) */
 #define ANKLE_HEIGHT 0.07f
-#define LOOP_TOWARD 1.f   /* the forearm's depth slope (tan 45 deg), see the header */
 /* The geodesic graph joins neighbouring cells whose depths differ by less than max_jump, or by
  * less than this many of the Kinect's depth steps at the person's depth, whichever is more (the
  * steps grow with the square of the depth: 1.9 cm at 2.5 m, 3.8 cm at 3.5 m; max_jump = 8 cm was
@@ -462,7 +462,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 memcpy(p, t->ex[label[l]].hidden, sizeof p);
             if (hand && t->ex[label[l]].loop) {
                 const drv__extremum *x = &t->ex[label[l]];
-                if (x->loop_rim && x->loop_slope <= -LOOP_TOWARD) { /* in front of the body */
+                if (x->loop_rim && x->loop_slope <= -DRV__LOOP_TOWARD) { /* before the body */
                     if (x->loop_z < -p[2])
                         for (int a = 0; a < 3; a++)
                             p[a] *= x->loop_z / -p[2];

@@ -29,6 +29,22 @@
  *    away from the hole's middle (at least LOOP_RIM_MIN of them, between O and B): its slope
  *    (depth per metre across the image) and its depth at B go with the hand (markers.c places it
  *    in front of the body or behind the hip from them).
+ *    A forearm that comes towards the camera (the line falls faster than DRV__LOOP_TOWARD) holds
+ *    its hand in front of the body, and the hole's lowest cell is then where the forearm's upper
+ *    rim meets the torso in the image, not the contact: pjump turned to -20 degrees, hands before
+ *    the belly, has the forearm pass below the hole to the hand, and the walk along O -> B went
+ *    on into the belly, 10-12 cm from the hand (3.5 m, frames 171-196). Such a hand is found on
+ *    the forearm's own surface instead: from the line's rim cells, a flood over neighbours (8)
+ *    whose depths differ by less than SURFACE_STEPS of the sensor's depth steps (one step is a
+ *    surface's quantisation, two an occluding edge: the hand before the belly is 10-17 cm in
+ *    front of it), within a hand's length (LOOP_HAND) of B, and the hand is the flooded cell
+ *    farthest from O - the forearm's far end from the elbow (hand_in_front). pjump at -20
+ *    degrees, hands within 10 cm 0.865 / 0.874 / 0.839 / 0.778 -> 0.896 / 0.887 / 0.868 / 0.820
+ *    at 2.0 / 2.5 / 3.2 / 3.5 m; the SMPL run's 0.461 -> 0.539 (docs/PERFORMANCE.md). Farther
+ *    than a hand's length the flood reaches the upper arm and the torso (at 3.5 m, with a fixed
+ *    4 cm step: 0.10 m 0.820, 0.15 m 0.813, 0.18 m 0.757, 0.25 m 0.713); at 3.5 m one depth step
+ *    gives 0.815 (the quantised steps of a tilted forearm stop it), two 0.797 (it crosses onto
+ *    the belly).
  *    Slits: a person turned side-on with a hand on the near hip holds the forearm in front of the
  *    torso's side, and no background shows between them: the arm and the torso close the loop
  *    across an occluding edge (a depth step over drv_depth_opts.max_jump, 0.08 m), not around a
@@ -471,6 +487,46 @@ int drv__segment_person(drv__grid *g, const drv_depth_opts *o)
 #define LOOP_RIM_MIN 3.f /* rim cells for the forearm's depth line */
 #define LOOP_SLIT 0.2f   /* metres along up: the shortest slit (see the header) */
 #define SOLID (-3)       /* drv__grid.hole: a person cell that closes holes */
+#define FOREARM (-4)     /* drv__grid.hole: a SOLID cell taken for the forearm's surface (restored
+                            to SOLID before the hole is left) */
+/* Neighbouring cells of one surface differ by at most one of the sensor's depth steps (the
+ * surface's own tilt across a cell aside); two steps or more is an occluding edge. Halfway: */
+#define SURFACE_STEPS 1.5f
+
+/* The hand of a forearm held in front of the body (see the header, step 5): the forearm's
+ * surface is flooded from the depth line's rim cells, g->stack[0..nseed) (at least one, marked
+ * FOREARM in g->hole; the stack receives the flooded cells after them), over neighbours (8) that
+ * are SOLID, lie within `reach` cells (a hand's length) of B (bx, by) and differ in depth by
+ * less than `surface` metres; the hand is the flooded cell farthest from O (ox, oy) in the image.
+ * Leaves every flooded cell SOLID again and returns the hand's cell. */
+static int hand_in_front(drv__grid *g, int nseed, float surface, int bx, int by, float reach,
+                         float ox, float oy)
+{
+    const int gw = g->gw, gh = g->gh;
+    int head = 0, tail = nseed, hand = g->stack[0];
+    float far = -1.f;
+    while (head < tail) {
+        const int j = g->stack[head++], x = j % gw, y = j / gw;
+        const float du = (float)x - ox, dv = (float)y - oy;
+        if (du * du + dv * dv > far) {
+            far = du * du + dv * dv;
+            hand = j;
+        }
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                const int xx = x + dx, yy = y + dy, i = yy * gw + xx;
+                if (xx < 0 || yy < 0 || xx >= gw || yy >= gh || g->hole[i] != SOLID ||
+                    fabsf(g->z[i] - g->z[j]) >= surface ||
+                    (float)((xx - bx) * (xx - bx) + (yy - by) * (yy - by)) > reach * reach)
+                    continue;
+                g->hole[i] = FOREARM;
+                g->stack[tail++] = i;
+            }
+    }
+    for (int k = 0; k < tail; k++)
+        g->hole[g->stack[k]] = SOLID;
+    return hand;
+}
 
 /* One pass of drv__segment_arm_loops: slit = 0 finds holes of background; slit = 1 also counts as
  * open the person cells on either side of an occluding edge (slits), needs every hole to span
@@ -547,6 +603,8 @@ static int find_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
     /* the holes, one at a time: flood, then measure */
     const float z = g->mean_z;
     const float cell_m = z * (float)g->step / (float)o->k.fx; /* a cell's size at the person */
+    const float surface = SURFACE_STEPS * (float)(drv_kinect1_disparity_to_m(
+                                                      drv_kinect1_m_to_disparity(z) + 1.0) - z);
     /* the centroid's pixel, in cells */
     float cu = (float)(o->k.cx + g->centroid[0] / -g->centroid[2] * o->k.fx) / (float)g->step;
     float cv = (float)(o->k.cy - g->centroid[1] / -g->centroid[2] * o->k.fy) / (float)g->step;
@@ -647,17 +705,23 @@ static int find_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
         const float mx = su / (float)count - ox, my = sv / (float)count - oy;
         const float inner = cx * my - cy * mx > 0 ? 1.f : -1.f; /* the hole's side of the chord */
         float n = 0, st = 0, sz = 0, stt = 0, stz = 0;
+        int nseed = 0; /* the distinct rim cells of the line, kept in g->stack (hand_in_front) */
         for (int k = 0; k < count; k++) {
             const int j = g->hole_cells[k], x = j % gw, y = j / gw;
             for (int d = 0; d < 4; d++) {
                 const int xx = x + d4[d][0], yy = y + d4[d][1];
-                if (xx < 0 || yy < 0 || xx >= gw || yy >= gh || g->hole[yy * gw + xx] != SOLID)
+                if (xx < 0 || yy < 0 || xx >= gw || yy >= gh ||
+                    (g->hole[yy * gw + xx] != SOLID && g->hole[yy * gw + xx] != FOREARM))
                     continue;
                 const float px = (float)xx - ox, py = (float)yy - oy;
                 const float t = (px * cx + py * cy) / c2;
                 if (t < 0.f || t > 1.f || inner * (cx * py - cy * px) > 0.f)
                     continue;
                 const float zr = g->z[yy * gw + xx];
+                if (g->hole[yy * gw + xx] == SOLID) {
+                    g->hole[yy * gw + xx] = FOREARM;
+                    g->stack[nseed++] = yy * gw + xx;
+                }
                 n += 1.f;
                 st += t;
                 sz += zr;
@@ -674,6 +738,11 @@ static int find_loops(drv__grid *g, const drv_depth_opts *o, const float up[3],
             e->loop_slope = sl / (sqrtf(c2) * cell_m);
             e->loop_z = (sz - sl * st) / n + sl; /* the line's depth at B */
         }
+        if (e->loop_rim && e->loop_slope <= -DRV__LOOP_TOWARD)
+            tip = hand_in_front(g, nseed, surface, b % gw, b / gw, reach, ox, oy);
+        else
+            for (int k = 0; k < nseed; k++)
+                g->hole[g->stack[k]] = SOLID;
         e->cell = tip;
         e->loop = side > 0 ? 1 : -1;
         e->loop_slit = slit;
