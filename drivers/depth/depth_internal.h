@@ -66,6 +66,11 @@ double drv__rand01(uint64_t *s);
 
 /* ------------------------------------------------------------------ geodesic extrema (geodesic.c) */
 
+/* metres above the floor: the ankle's height, 0.039 of the body's height (Drillis & Contini),
+ * 0.068 m at 1.75 m. A leg that the image's bottom edge cuts higher than this is cut through the
+ * shin, not the foot (markers.c); an extremum lower than this stands on the floor (label.c) */
+#define DRV__ANKLE_HEIGHT 0.07f
+
 /* An arm loop's forearm whose depth falls faster than this across the image (depth per metre,
  * tan 45 degrees) towards the contact comes towards the camera: its hand is held in front of the
  * body, not rested on it (segment.c places it, markers.c gives it its depth) */
@@ -189,6 +194,9 @@ typedef struct drv__label_prev {
                           with the head in full view (markers.c); 0 = not yet measured */
     uint8_t whole_body; /* the person is seen down to the floor, so the centroid is the whole
                            body's (markers.c); label.c's HEAD_APART holds only then */
+    float centroid_floor; /* metres from the floor up to the centroid (markers.c), 0 when no
+                             floor was found: an extremum's height above the floor is its height
+                             above the centroid plus this (`up` is the floor's normal then) */
 } drv__label_prev;
 
 /* Assigns extrema to head/lhand/rhand/lfoot/rfoot. `up` and `right` are unit vectors of the body

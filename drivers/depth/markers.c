@@ -104,17 +104,18 @@
  * hands 0.261 -> 0.432.
  * A foot is the end of a leg in view. A leg that the image's bottom edge cuts (its extremum in the
  * grid's bottom row, or the leg going on down to it from there: reaches_bottom) higher above the
- * floor than an ankle (ANKLE_HEIGHT) is cut through the shin: the foot is below the image and the
- * point labelled is a guess, reported inferred. label.c still lets such a cut be a foot (FOOT_CUT),
- * because a foot standing at the image's bottom edge is cut through itself, and is found there:
- * over both grids (2.0-3.2 m, yaw -35..35), cut tips within 4 cm of the floor were within 10 cm
- * of their foot in 99 % (samba) and 100 % (pjump), 6-8 cm up in 51 % and 83 %, 10-12 cm up in 0
- * and 56 %. At 2.0 m the bottom edge cuts both performers' legs 4-27 cm above the floor, and valid
- * foot reports with no foot within 10 cm fell in all 20 cells of that distance (samba facing 0.68 ->
- * 0.29, pjump facing 0.57 -> 0.29, pjump at +20 degrees 0.54 -> 0.16), at 2.5-3.5 m they moved
- * in one cell, by 0.0001; feet within 10 cm (which count inferred feet) did not change anywhere, and side_correct
- * fell by at most 0.010 (pjump at 2.0 m, feet in view cut at their ankles). Without a floor
- * plane there is no height to go by, and a cut foot stays valid as before. */
+ * floor than an ankle (DRV__ANKLE_HEIGHT) is cut through the shin: the foot is below the image and
+ * the point labelled is a guess, reported inferred. label.c still lets such a cut be a foot
+ * (FOOT_CUT), because a foot standing at the image's bottom edge is cut through itself, and is
+ * found there: over both grids (2.0-3.2 m, yaw -35..35), cut tips within 4 cm of the floor were
+ * within 10 cm of their foot in 99 % (samba) and 100 % (pjump), 6-8 cm up in 51 % and 83 %, 10-12
+ * cm up in 0 and 56 %. At 2.0 m the bottom edge cuts both performers' legs 4-27 cm above the floor,
+ * and valid foot reports with no foot within 10 cm fell in all 20 cells of that distance (samba
+ * facing 0.68 -> 0.29, pjump facing 0.57 -> 0.29, pjump at +20 degrees 0.54 -> 0.16), at 2.5-3.5 m
+ * they moved in one cell, by 0.0001; feet within 10 cm (which count inferred feet) did not change
+ * anywhere, and side_correct fell by at most 0.010 (pjump at 2.0 m, feet in view cut at their
+ * ankles). Without a floor plane there is no height to go by, and a cut foot stays valid as
+ * before. */
 #include "depth_internal.h"
 
 #include <errno.h>
@@ -140,10 +141,6 @@
  * what is in view is the whole body's within a few cm (the feet and lower shins are ~3 % of the
  * body's mass) */
 #define FEET_IN_VIEW 0.3f
-/* metres above the floor: the ankle's height, 0.039 of the body's height (Drillis & Contini),
- * 0.068 m at 1.75 m. A leg that the image's bottom edge cuts higher than this is cut through the
- * shin, not the foot: the foot is below the image and is reported inferred (see the header) */
-#define ANKLE_HEIGHT 0.07f
 /* The geodesic graph joins neighbouring cells whose depths differ by less than max_jump, or by
  * less than this many of the Kinect's depth steps at the person's depth, whichever is more (the
  * steps grow with the square of the depth: 1.9 cm at 2.5 m, 3.8 cm at 3.5 m; max_jump = 8 cm was
@@ -446,6 +443,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
     }
     prev.elbow_reach0 = whole_body ? SHOULDER_GEODESIC + ELBOW_REACH : 0.f;
     prev.whole_body = (uint8_t)whole_body;
+    prev.centroid_floor = r->floor_found ? floor_height(r->floor, g->centroid) : 0.f;
     int label[5];
     float conf[5];
     uint8_t side_sure[5], head_sure;
@@ -522,7 +520,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 r->inferred[l] = 1;
             }
             const int foot = l == DRV_DEPTH_LFOOT || l == DRV_DEPTH_RFOOT;
-            if (foot && r->floor_found && floor_height(r->floor, x->tip) > ANKLE_HEIGHT &&
+            if (foot && r->floor_found && floor_height(r->floor, x->tip) > DRV__ANKLE_HEIGHT &&
                 reaches_bottom(g, x->cell, go.max_jump)) {
                 r->valid[l] = 0; /* cut through the shin: the foot is below the image */
                 r->inferred[l] = 1;
