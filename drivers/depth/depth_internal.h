@@ -108,6 +108,9 @@ struct drv__extremum {
     int hidden_end;   /* the limb ends at an occluding edge: a nearer surface lies next to its tip,
                          so the limb goes on behind it (a hand behind the hip) */
     float hidden[3];  /* then: the tip carried on behind the edge along the limb's direction */
+    float occluder[3]; /* then: the mean of the nearer surface's cells next to the tip, each moved
+                          along its viewing ray to the tip cell's depth: where, in the image, the
+                          limb goes on behind it (a foot behind the other shin, markers.c) */
 };
 
 typedef struct drv__geodesic {

@@ -39,7 +39,9 @@
  * - Hidden ends: a hand resting on the far hip ends, in the image, where the forearm disappears
  *   behind the torso. An extremum with a nearer surface within two cells of it is marked
  *   hidden_end, with an estimate of the real end HIDDEN_REACH further along the direction of the
- *   last LIMB_BACK metres of its path; the tracker uses it for hands (markers.c). */
+ *   last LIMB_BACK metres of its path; the tracker uses it for hands (markers.c). The nearer
+ *   cells' mean, at the tip's depth, is where in the image the limb goes on: markers.c moves a
+ *   foot on the floor under it. */
 #include "depth_internal.h"
 
 #include <errno.h>
@@ -323,25 +325,32 @@ static void run(drv__geodesic *ge, const drv__grid *g, float radius, double *tip
 
 /* An occluding edge at the tip: a cell within two of it, nearer to the camera by HIDDEN_JUMP or
  * more. The limb then continues behind the nearer surface; its hidden end is estimated
- * HIDDEN_REACH further along the direction of its last LIMB_BACK metres of path. */
+ * HIDDEN_REACH further along the direction of its last LIMB_BACK metres of path, and the nearer
+ * cells' mean, each brought along its ray to the tip's depth, is where in the image it goes on. */
 #define LIMB_BACK 0.15f
 #define HIDDEN_JUMP 0.08f
 #define HIDDEN_REACH 0.14f
 static void hidden_end(const drv__grid *g, int e, int limb, drv__extremum *x)
 {
     const int gw = g->gw, gh = g->gh, ex = e % gw, ey = e / gw;
-    x->hidden_end = 0;
-    for (int dy = -2; dy <= 2 && !x->hidden_end; dy++)
+    float occ[3] = {0, 0, 0};
+    int nocc = 0;
+    for (int dy = -2; dy <= 2; dy++)
         for (int dx = -2; dx <= 2; dx++) {
             int xx = ex + dx, yy = ey + dy;
             if (xx < 0 || yy < 0 || xx >= gw || yy >= gh)
                 continue;
-            float z = g->z[yy * gw + xx];
+            const int c = yy * gw + xx;
+            const float z = g->z[c];
             if (z > 0 && z < g->z[e] - HIDDEN_JUMP) {
-                x->hidden_end = 1;
-                break;
+                for (int a = 0; a < 3; a++)
+                    occ[a] += g->P[3 * c + a] * (g->z[e] / z);
+                nocc++;
             }
         }
+    x->hidden_end = nocc > 0;
+    for (int a = 0; a < 3; a++)
+        x->occluder[a] = nocc ? occ[a] / (float)nocc : g->P[3 * e + a];
     const float *pe = g->P + 3 * e, *pl = g->P + 3 * limb;
     float d[3] = {pe[0] - pl[0], pe[1] - pl[1], pe[2] - pl[2]};
     float n = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
