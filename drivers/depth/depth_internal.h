@@ -207,7 +207,8 @@ typedef struct drv__label_prev {
  * facing the camera). label[i] receives the extremum index per label or -1; conf[i] in 0..1;
  * side_sure[i] 0 when the hands' (feet's) sides are not certain: the best assignment with the two
  * swapped costs less than SIDE_MARGIN more (label.c); *head_sure 0 when the head's anchor lies
- * more than HEAD_ASIDE off the mid-plane (label.c): where it is, is a guess. */
+ * more than HEAD_ASIDE off the mid-plane, or when the head, lost while the person reaches the
+ * image's top edge, was found within its aged reach (label.c): where it is, is a guess. */
 void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3], const float up[3],
                        const float right[3], const drv__label_prev *prev, int label[5],
                        float conf[5], uint8_t side_sure[5], uint8_t *head_sure);

@@ -95,6 +95,19 @@
  *   not below 0 (an old position is no evidence for a candidate beside it), unless the person's
  *   silhouette reaches the image's top edge: there the head may be just above the image, and
  *   the old position is what keeps a raised arm's or a shoulder's cut from being taken for it.
+ *   There the reach ages too, but a head found with it is reported inferred (head_sure 0), a
+ *   guess for that frame: with r = 0.1 m there, pjump's neck coming back into view at 2.0 m as
+ *   the performer lands (frames 21-23, 125-127, lost 3-8 frames) paid 0.8-1.3 for its last
+ *   place and was left unlabelled. Over both grids, own turns kept and held, heads within 10 cm
+ *   rose in 7 cells each and fell in none (pjump at 2.0 m, -20 / +20 degrees, 0.636 / 0.636 ->
+ *   0.727 / 0.727, held 0.455 / 0.727 -> 0.636 / 0.909; facing 2.5 m 0.906 -> 0.938); valid
+ *   heads with no head within 10 cm fell in 9 and 10 cells and rose in 8 and 6, by more than
+ *   0.001 in 4 and 3 (-20 degrees, 2.0 / 2.5 m 0.300 / 0.060 -> 0.333 / 0.086; +35 degrees,
+ *   2.0 m 0.450 -> 0.474; held facing at 2.0 m 0.250 -> 0.273, +35 degrees at 2.5 m 0.085 ->
+ *   0.115); the SMPL takes unchanged but one head (lambada at -20 degrees, valid wrong 0.0119
+ *   -> 0.0122). Reported valid, the heads so found raised the valid wrong ones in 11 cells of
+ *   the kept grid (-20 degrees, 2.5 m 0.060 -> 0.120; +35 degrees, 2.0 m 0.450 -> 0.607;
+ *   docs/PERFORMANCE.md, 2026-12-08).
  *   With r = 0.1 m for every age a head lost from view was held off its new place for up to
  *   15 frames (pjump turned by 20-35 degrees, its head turned out of view and back; at 2.0 m,
  *   the neck's top coming back into view as the performer crouches): pjump's heads within
@@ -226,6 +239,9 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
     /* the head's anchor off the mid-plane: scale, and per extremum (HEAD_ASIDE) */
     const float aside = prev && !prev->top_touch ? ARM_SIDE : HEAD_ASIDE;
     float head_aside[MAXE] = {0};
+    /* a head lost while the person reaches the image's top edge, looked for within the aged
+       reach: a guess this frame (see the header) */
+    uint8_t head_regained[MAXE] = {0};
     int loop_side[2] = {0, 0};
     for (int e = 0; e < s.nex; e++) {
         if (!ex[e].loop)
@@ -300,13 +316,16 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
                 float d[3] = {x->tip[0] - prev->p[k][0], x->tip[1] - prev->p[k][1],
                               x->tip[2] - prev->p[k][2]};
                 float dist = sqrtf(dot3(d, d)), reach = STEP_REACH;
-                /* a head lost n frames ago: its position spread over sqrt(n + 1) steps (see the
-                   header) */
-                const int aged = k == 0 && prev->missed[k] > 0 && !prev->top_touch;
-                if (aged)
+                /* a head lost n frames ago: its position spread over sqrt(n + 1) steps, and no
+                   credit for a candidate beside it unless the person reaches the image's top
+                   edge, where a head found so is a guess (see the header) */
+                const int lost = k == 0 && prev->missed[k] > 0;
+                const int no_credit = lost && !prev->top_touch;
+                if (lost)
                     reach *= sqrtf(1.f + prev->missed[k]);
+                head_regained[e] |= lost && prev->top_touch;
                 float term = fminf(dist / reach, 3.f) - 1.f;
-                s.cost[k][e] += aged && term < 0 ? 0.f : term;
+                s.cost[k][e] += no_credit && term < 0 ? 0.f : term;
                 if (s.cost[k][e] < 0)
                     s.cost[k][e] = 0;
             }
@@ -328,7 +347,8 @@ void drv__label_assign(const drv__extremum *ex, int nex, const float centroid[3]
     /* the sides: how much more the best assignment with the pair's labels swapped costs */
     for (int k = 0; k < NL; k++)
         side_sure[k] = 1;
-    *head_sure = s.best[0] < 0 || head_aside[s.best[0]] <= HEAD_ASIDE;
+    *head_sure = s.best[0] < 0 ||
+                 (head_aside[s.best[0]] <= HEAD_ASIDE && !head_regained[s.best[0]]);
     for (int pair = 1; pair <= 3; pair += 2) {
         const int a = s.best[pair], b = s.best[pair + 1];
         if (a < 0 && b < 0)

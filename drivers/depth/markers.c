@@ -548,7 +548,7 @@ int drv_depth_tracker_process(drv_depth_tracker *t, const uint16_t *depth_mm, ui
                 r->inferred[l] = 1;
             }
             if (l == DRV_DEPTH_HEAD && !head_sure) {
-                r->valid[l] = 0; /* its anchor far off the mid-plane: label.c, HEAD_ASIDE */
+                r->valid[l] = 0; /* anchor far off the mid-plane, or regained: label.c */
                 r->inferred[l] = 1;
             }
             if (l == DRV_DEPTH_HEAD && cut_width > HEAD_CUT_WIDTH) {

@@ -78,9 +78,12 @@ check() {
 # of the forearm's own surface from the elbow, not a hand's length on from the hole's lowest cell
 # (segment.c, hand_in_front; 2026-12-07): pjump at -20 degrees hands 0.874 -> 0.887, side 0.935
 # -> 0.941.
+# A head lost while the silhouette reaches the image's top edge is looked for within its aged
+# reach, and reported inferred when found so (label.c; 2026-12-08): pjump facing, heads 0.906 ->
+# 0.938.
 #      seq   yaw frames  head hand foot side  side_wrong [distance]
 check samba 0   :       0.95 0.9  0.9  0.9   0.02
-check pjump 0   :       0.90 0.9  0.95 0.94  0.02
+check pjump 0   :       0.93 0.9  0.95 0.94  0.02
 check samba 20  :       0.95 0.95 0.85 0.9   0.02
 check pjump 20  :       0.93 0.93 0.95 0.96  0.02
 check pjump -20 :       0.90 0.88 0.95 0.94  0.02
@@ -106,8 +109,10 @@ head_median "$dir/pjump-20-2.5.json" 0.030 "pjump at +20 degrees"
 # than HEAD_ASIDE (0.08 m) off the mid-plane is reported inferred (label.c, markers.c): 0.167 ->
 # 0.109 here, 0.438 -> 0.333 at 2.0 m facing; heads here 0.746 -> 0.761 (2026-12-07). With the
 # head's faster filter (markers.c): heads here 0.791 -> 0.806, valid wrong ones 0.074 -> 0.018;
-# at 2.0 m facing 0.333 -> 0.250 (2026-12-07).
-check pjump -35 :       0.80 0.73 0.95 0.87  0.02
+# at 2.0 m facing 0.333 -> 0.250 (2026-12-07). A head lost while the silhouette reaches the top
+# edge is looked for within its aged reach too, and reported inferred when found so (label.c):
+# heads here 0.806 -> 0.866; at 2.0 m facing valid wrong heads 0.250 -> 0.143 (2026-12-08).
+check pjump -35 :       0.86 0.73 0.95 0.87  0.02
 grep -o '"confident_wrong": {[^}]*}' "$dir/pjump--35-2.5.json" >"$dir/cw35.json" ||
     fail "pjump at -35: no confident_wrong"
 v=$(json_num "$dir/cw35.json" head)
@@ -116,7 +121,7 @@ check pjump 0   :       0.70 0.89 0.95 0.90  0.02  2.0
 grep -o '"confident_wrong": {[^}]*}' "$dir/pjump-0-2.0.json" >"$dir/cwp2.json" ||
     fail "pjump at 2.0 m: no confident_wrong"
 v=$(json_num "$dir/cwp2.json" head)
-le "$v" 0.26 || fail "pjump at 2.0 m: valid head reports with no head within 10 cm: '$v', above 0.26"
+le "$v" 0.15 || fail "pjump at 2.0 m: valid head reports with no head within 10 cm: '$v', above 0.15"
 # pjump turned +35 degrees at 3.2 m, in full view: its neck, leaning towards the camera and
 # turned, lies more than 8 cm to the side of the centroid in much of the take (at +20 degrees,
 # frames 117-126, 11-16 cm); at HEAD_ASIDE for every head it was left unlabelled, at ARM_SIDE with
